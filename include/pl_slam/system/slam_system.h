@@ -1,0 +1,77 @@
+// The core pipeline facade: one call per stereo frame. The offline runner, the nodelet, the
+// benchmarks and the tests all drive the system through this class.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pl_slam/camera/stereo_camera.h"
+#include "pl_slam/geometry/se3.h"
+#include "pl_slam/io/stereo_frame.h"
+#include "pl_slam/io/trajectory.h"
+
+namespace pl_slam {
+
+/// Tracking state after a frame.
+enum class TrackingState { kNotInitialized = 0, kTracking = 1, kLost = 2 };
+
+/// Human-readable name of a tracking state ("NOT_INITIALIZED", "TRACKING", "LOST").
+const char* TrackingStateName(TrackingState state);
+
+/// Options of the whole system (the per-module structs grow here as modules land).
+struct SystemOptions {
+  int max_points = 1000;          ///< ORB keypoints per image
+  double max_disparity = 200.0;   ///< stereo disparity search range, pixels
+  double min_disparity = 0.5;     ///< below this a stereo match is treated as at infinity
+  int min_inliers = 15;           ///< fewer motion inliers than this means tracking is lost
+
+  /// Empty when valid, else "key=value: allowed range" for the first bad field.
+  std::string Validate() const;
+};
+
+/// What the system reports for one frame.
+struct FrameResult {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  TrackingState state = TrackingState::kNotInitialized;
+  SE3 T_w_c;                                ///< current left-camera pose (last good when lost)
+  Matrix6d covariance = Matrix6d::Identity();  ///< of the frame-to-frame increment [rho; phi]
+  bool pose_valid = false;                  ///< T_w_c is an estimate for this frame
+  bool is_keyframe = false;
+  int points_detected = 0;
+  int lines_detected = 0;
+  int point_inliers = 0;
+  int line_inliers = 0;
+  std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
+  double total_ms = 0.0;
+};
+
+/// Runs tracking on a sequence of rectified stereo frames. Not thread-safe: call Process()
+/// from one thread; the accessors take consistent copies.
+class SlamSystem {
+ public:
+  /// Throws ConfigError when the camera or the options are invalid.
+  SlamSystem(const StereoCamera& camera, const SystemOptions& options);
+  ~SlamSystem();
+  SlamSystem(const SlamSystem&) = delete;
+  SlamSystem& operator=(const SlamSystem&) = delete;
+
+  /// Processes one frame. Bad frames (empty, wrong size or type) give a warning and a kLost
+  /// result; the pose never becomes NaN.
+  FrameResult Process(const StereoFrame& frame);
+
+  /// Estimated left-camera trajectory (one pose per tracked frame) so far.
+  Trajectory trajectory() const;
+
+  /// Forgets everything: the next frame starts a new map at the identity.
+  void Reset();
+
+  const StereoCamera& camera() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pl_slam
