@@ -1,0 +1,112 @@
+// The ROS face of pl_slam: converts messages, parameters and TF, and calls the core.
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include <image_transport/image_transport.h>
+#include <image_transport/subscriber_filter.h>
+#include <message_filters/subscriber.h>
+#include <message_filters/sync_policies/approximate_time.h>
+#include <message_filters/sync_policies/exact_time.h>
+#include <message_filters/synchronizer.h>
+#include <nav_msgs/Path.h>
+#include <nodelet/nodelet.h>
+#include <ros/ros.h>
+#include <sensor_msgs/CameraInfo.h>
+#include <sensor_msgs/Image.h>
+#include <std_srvs/Trigger.h>
+#include <tf2_ros/buffer.h>
+#include <tf2_ros/transform_broadcaster.h>
+#include <tf2_ros/transform_listener.h>
+
+#include "pl_slam/SaveTrajectory.h"
+#include "pl_slam/io/stereo_frame.h"
+#include "pl_slam/system/slam_system.h"
+
+namespace pl_slam {
+namespace ros_layer {
+
+/// Parameters of the nodelet (private namespace), validated at start-up.
+struct NodeletOptions {
+  std::string map_frame = "map";         ///< fixed world frame (REP-105)
+  std::string odom_frame = "odom";       ///< odometry frame (REP-105)
+  std::string base_frame = "base_link";  ///< robot body frame
+  std::string camera_frame;              ///< left optical frame; empty = image header frame_id
+  bool publish_tf = true;                ///< broadcast map->odom->base_link
+  bool approximate_sync = false;         ///< ApproximateTime instead of ExactTime
+  double sync_tolerance = 0.005;         ///< max stamp difference (s) with approximate sync
+  int queue_size = 5;                    ///< subscriber and synchroniser queue length
+  SystemOptions system;                  ///< core pipeline options
+
+  /// Empty when valid, else "key=value must be ..." for the first bad field.
+  std::string Validate() const;
+};
+
+/// Nodelet `pl_slam/StereoSlamNodelet`. Inputs: left/image, right/image (image_transport),
+/// left/camera_info, right/camera_info. Outputs (private namespace): odom, pose, path,
+/// status, TF. Services: save_trajectory, reset.
+class StereoSlamNodelet : public nodelet::Nodelet {
+ public:
+  StereoSlamNodelet() = default;
+  ~StereoSlamNodelet() override;
+
+ private:
+  void onInit() override;
+  bool LoadOptions(ros::NodeHandle& pnh);
+  void StereoCallback(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::CameraInfoConstPtr& left_info,
+                      const sensor_msgs::ImageConstPtr& right, const sensor_msgs::CameraInfoConstPtr& right_info);
+  void WorkerLoop();
+  void ProcessOne(const StereoFrame& frame, const std_msgs::Header& header);
+  void Publish(const FrameResult& result, const std_msgs::Header& header);
+  bool OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req, pl_slam::SaveTrajectory::Response& res);
+  bool OnReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+
+  using ExactPolicy = message_filters::sync_policies::ExactTime<
+      sensor_msgs::Image, sensor_msgs::CameraInfo, sensor_msgs::Image, sensor_msgs::CameraInfo>;
+  using ApproxPolicy = message_filters::sync_policies::ApproximateTime<
+      sensor_msgs::Image, sensor_msgs::CameraInfo, sensor_msgs::Image, sensor_msgs::CameraInfo>;
+
+  NodeletOptions options_;
+  std::unique_ptr<image_transport::ImageTransport> it_;
+  image_transport::SubscriberFilter left_sub_, right_sub_;
+  message_filters::Subscriber<sensor_msgs::CameraInfo> left_info_sub_, right_info_sub_;
+  std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ApproxPolicy>> approx_sync_;
+
+  ros::Publisher odom_pub_, pose_pub_, path_pub_, status_pub_;
+  ros::ServiceServer save_srv_, reset_srv_;
+  std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
+  std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
+  std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
+
+  // Mailbox between the subscriber callback and the worker: one slot, the newest frame wins.
+  // Lock order: mailbox_mutex_ is never held while system_mutex_ is taken or vice versa.
+  std::mutex mailbox_mutex_;
+  std::condition_variable mailbox_cv_;
+  struct Pending {
+    StereoFrame frame;
+    std_msgs::Header header;
+    StereoCamera camera;
+  };
+  std::optional<Pending> mailbox_;
+  std::atomic<bool> stop_{false};
+  std::atomic<uint32_t> dropped_{0};
+  std::thread worker_;
+
+  // Owned by the worker thread; services take system_mutex_ to reach it.
+  std::mutex system_mutex_;
+  std::unique_ptr<SlamSystem> system_;
+  StereoCamera camera_;
+  std::optional<SE3> T_base_cam_;
+  int64_t last_stamp_ns_ = -1;
+  uint32_t frames_processed_ = 0;
+  nav_msgs::Path path_;
+};
+
+}  // namespace ros_layer
+}  // namespace pl_slam

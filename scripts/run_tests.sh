@@ -1,0 +1,26 @@
+#!/usr/bin/env bash
+# Builds pl_slam and runs the whole test suite: gtest unit tests of the core and the ROS
+# layer, and rostest integration tests (each rostest starts its own master on its own port).
+# Installs missing system packages first. Exit code 0 only when every test passed.
+set -euo pipefail
+HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
+bash "${HERE}/setup.sh"
+source "${HERE}/env.sh"
+cd "${PL_SLAM_WS}"
+
+results="${PL_SLAM_WS}/build/test_results"
+rm -rf "${results}/pl_slam"
+# run_tests exits 0 even when tests fail (catkin quirk): the verdict comes from the XML below.
+set +e
+catkin_make run_tests -DPYTHON_EXECUTABLE=/usr/bin/python3 -j"${PL_SLAM_JOBS:-$(nproc)}" 2>&1 | \
+  tee "${PL_SLAM_WS}/run_tests.log" | grep -E "^\[ *(RUN|OK|FAILED|SKIPPED|PASSED) *\]|^\[(ROSUNIT|Testcase)|FAILURE|error:|Error |SUMMARY|^ \* " 
+build_rc=${PIPESTATUS[0]}
+set -e
+if [ "${build_rc}" -ne 0 ]; then
+  echo "run_tests.sh: building or running the tests failed (exit ${build_rc}); see ${PL_SLAM_WS}/run_tests.log" >&2
+fi
+catkin_test_results --verbose "${results}" > "${PL_SLAM_WS}/test_results.txt" 2>&1
+verdict=$?
+grep -E "^Summary|Failure|Error" "${PL_SLAM_WS}/test_results.txt" | tail -20 || true
+/usr/bin/python3 "${HERE}/summarize_junit.py" "${results}"
+if [ "${build_rc}" -ne 0 ] || [ "${verdict}" -ne 0 ]; then exit 1; fi
