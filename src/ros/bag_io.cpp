@@ -88,17 +88,19 @@ BagStereoSource::~BagStereoSource() = default;
 bool BagStereoSource::Next(StereoFrame* frame) {
   try {
     while (it_ != view_->end()) {
+      // The instance refers into the iterator: read everything before advancing it.
       const rosbag::MessageInstance& m = *it_;
-      ++it_;
       auto img = m.instantiate<sensor_msgs::Image>();
+      const std::string topic = m.getTopic();
+      ++it_;
       if (!img) continue;
-      const bool is_left = m.getTopic() == topics_.left_image;
+      const bool is_left = topic == topics_.left_image;
       const int64_t stamp = StampOf(*img);
       cv::Mat mono;
       try {
         mono = ImageToMono8(*img);
       } catch (const InputError& e) {
-        throw InputError(path_ + ": " + m.getTopic() + ": " + e.what());
+        throw InputError(path_ + ": " + topic + ": " + e.what());
       }
       auto& mine = is_left ? pending_left_ : pending_right_;
       auto& other = is_left ? pending_right_ : pending_left_;
