@@ -33,7 +33,8 @@ constexpr char kUsage[] =
     "  --max-points N        ORB keypoints per image (default 1000)\n"
     "  --min-inliers N       inliers below which tracking is lost (default 15)\n"
     "  --quiet               only the summary\n"
-    "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv\n";
+    "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
+    "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
 
 struct TimingRow {
   int index;
@@ -122,13 +123,18 @@ int Run(int argc, char** argv) {
   const std::string traj_path = out_dir + "/trajectory.tum";
   pl_slam::WriteTrajectory(traj_path, traj, pl_slam::TrajectoryFormat::kTum);
   pl_slam::WriteFileAtomic(out_dir + "/timing.csv", TimingCsv(rows));
+  // Every frame read (tracked or not): what coverage is measured against.
+  std::ostringstream frame_times;
+  frame_times << std::fixed << std::setprecision(9);
+  for (const auto& r : rows) frame_times << r.stamp << "\n";
+  pl_slam::WriteFileAtomic(out_dir + "/frames.txt", frame_times.str());
   if (!source->ground_truth().empty()) {
     pl_slam::WriteTrajectory(out_dir + "/groundtruth.tum", source->ground_truth(), pl_slam::TrajectoryFormat::kTum);
   }
   std::cout << std::fixed << std::setprecision(2) << "frames " << rows.size() << ", with pose "
             << traj.size() << ", without pose " << lost << "; tracking time median "
             << Percentile(totals, 0.5) << " ms, p95 " << Percentile(totals, 0.95) << " ms\n"
-            << "wrote " << traj_path << ", " << out_dir << "/timing.csv"
+            << "wrote " << traj_path << ", " << out_dir << "/timing.csv, " << out_dir << "/frames.txt"
             << (source->ground_truth().empty() ? "" : ", " + out_dir + "/groundtruth.tum") << "\n";
   return 0;
 }

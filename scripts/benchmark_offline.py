@@ -1,0 +1,140 @@
+#!/usr/bin/env python3
+"""Offline accuracy and speed benchmark: runs pl_slam_offline on the synthetic sequences
+(rendered on first use) and on ../shared/datasets' sequences (skipped with a message when
+absent), scores each with pl_slam_evaluate (SE(3)-aligned ATE, RPE, coverage) and prints a
+Markdown table for docs/BENCHMARKS.md, plus per-stage timing medians.
+
+    scripts/benchmark_offline.py [--out DIR] [--only NAME,NAME] [--repeat N]
+
+Needs a built workspace (scripts/setup.sh). Standard library only; Debian's python3.
+"""
+import argparse
+import csv
+import json
+import os
+import platform
+import statistics
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BIN = os.path.join(os.environ.get("PL_SLAM_WS", os.path.join(ROOT, ".ws")), "devel", "lib", "pl_slam")
+SHARED = os.path.join(ROOT, "..", "shared", "datasets")
+
+SYNTHETIC = ["room", "corridor", "fast_turn"]
+REAL = [("euroc_mh01", os.path.join(SHARED, "euroc_mh01_f100-249")),
+        ("kitti_clip_a", os.path.join(SHARED, "kitti_clip_a"))]
+
+
+def run(cmd, log):
+    with open(log, "w") as f:
+        r = subprocess.run(cmd, stdout=f, stderr=subprocess.STDOUT)
+    if r.returncode != 0:
+        with open(log) as f:
+            tail = f.read()[-2000:]
+        raise RuntimeError("%s failed (exit %d):\n%s" % (" ".join(cmd), r.returncode, tail))
+
+
+def percentile(values, q):
+    if not values:
+        return float("nan")
+    v = sorted(values)
+    return v[min(len(v) - 1, int(q * (len(v) - 1) + 0.5))]
+
+
+def bench(name, source, out, repeat):
+    runs = []
+    for k in range(repeat):
+        d = os.path.join(out, name, "run%d" % k)
+        os.makedirs(d, exist_ok=True)
+        run([os.path.join(BIN, "pl_slam_offline"), source, "--out", d, "--quiet"],
+            os.path.join(d, "offline.log"))
+        runs.append(d)
+    d = runs[0]
+    run([os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(d, "trajectory.tum"),
+         "--gt", os.path.join(d, "groundtruth.tum"), "--frame-times", os.path.join(d, "frames.txt"),
+         "--align", "se3", "--json", os.path.join(d, "eval.json"),
+         "--plot", os.path.join(out, name + ".png"), "--name", name],
+        os.path.join(d, "eval.log"))
+    with open(os.path.join(d, "eval.json")) as f:
+        ev = json.load(f)
+    totals, stages = [], {}
+    for d in runs:
+        with open(os.path.join(d, "timing.csv")) as f:
+            for row in csv.DictReader(f):
+                totals.append(float(row["total_ms"]))
+                for k, v in row.items():
+                    if k.endswith("_ms") and k != "total_ms":
+                        stages.setdefault(k[:-3], []).append(float(v))
+    rpe1 = next((r for r in ev["rpe_frames"] if r["delta"] == 1), None)
+    drift = [r for r in ev["rpe_distance"] if r["segments"] > 0]
+    return {
+        "name": name,
+        "frames": ev["coverage"]["frames"],
+        "coverage": ev["coverage"]["ratio"],
+        "length": ev["gt_path_length_m"],
+        "ate": ev["ate"]["translation"]["rmse"],
+        "rpe1_t": rpe1["translation_m"]["rmse"] if rpe1 else float("nan"),
+        "rpe1_r": rpe1["rotation_deg"]["rmse"] if rpe1 else float("nan"),
+        "drift": drift[-1]["translation_pct"] if drift else float("nan"),
+        "drift_len": drift[-1]["length_m"] if drift else float("nan"),
+        "median_ms": statistics.median(totals),
+        "p95_ms": percentile(totals, 0.95),
+        "spread_ms": percentile(totals, 0.75) - percentile(totals, 0.25),
+        "stages": {k: statistics.median(v) for k, v in stages.items()},
+    }
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench"))
+    ap.add_argument("--only", default="")
+    ap.add_argument("--repeat", type=int, default=1, help="runs per sequence for timing")
+    args = ap.parse_args()
+    only = set(filter(None, args.only.split(",")))
+    os.makedirs(args.out, exist_ok=True)
+
+    sequences = []
+    for scene in SYNTHETIC:
+        if only and scene not in only:
+            continue
+        data = os.path.join(args.out, "data", scene)
+        if not os.path.isdir(os.path.join(data, "mav0")):
+            print("rendering synthetic %s ..." % scene, flush=True)
+            run([os.path.join(BIN, "pl_slam_generate"), "--scene", scene, "--euroc", data],
+                os.path.join(args.out, "generate_%s.log" % scene))
+        sequences.append((scene, data))
+    for name, path in REAL:
+        if only and name not in only:
+            continue
+        if not os.path.isdir(path):
+            print("skipped %s: %s not found (real datasets live beside the repository on "
+                  "developer machines only)" % (name, path))
+            continue
+        sequences.append((name, path))
+
+    results = []
+    for name, path in sequences:
+        print("running %s ..." % name, flush=True)
+        results.append(bench(name, path, args.out, args.repeat))
+
+    print()
+    print("machine: %s, %d cores, %s" % (platform.node(), os.cpu_count(), platform.processor() or platform.machine()))
+    print()
+    print("| sequence | frames | coverage | path m | ATE RMSE m (SE3) | RPE/frame m | RPE/frame deg | drift %% (longest seg) | median ms | p95 ms | IQR ms |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for r in results:
+        print("| %s | %d | %.1f%% | %.1f | %.4f | %.4f | %.3f | %.2f (%g m) | %.1f | %.1f | %.1f |" % (
+            r["name"], r["frames"], 100 * r["coverage"], r["length"], r["ate"], r["rpe1_t"],
+            r["rpe1_r"], r["drift"], r["drift_len"], r["median_ms"], r["p95_ms"], r["spread_ms"]))
+    print()
+    print("per-stage median ms:")
+    for r in results:
+        print("  %-12s %s" % (r["name"], ", ".join("%s %.1f" % kv for kv in r["stages"].items())))
+    with open(os.path.join(args.out, "results.json"), "w") as f:
+        json.dump(results, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
