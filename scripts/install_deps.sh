@@ -7,7 +7,7 @@ export PATH="/usr/sbin:/usr/bin:/sbin:/bin:${PATH}"
 export DEBIAN_FRONTEND=noninteractive
 
 PKGS=(
-  build-essential cmake git pkg-config
+  build-essential cmake git pkg-config clang-format
   catkin python3-catkin-pkg ros-base-dev ros-base-python-dev rosbash
   ros-message-generation ros-message-runtime
   libnodelet-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev librosbag-dev python3-rosbag python3-rostest

@@ -1,0 +1,71 @@
+// The built-in synthetic scenes: worlds of textured quads plus the left-camera trajectory
+// walked through them.
+//
+// World frame: right-handed, z up, floor at z = 0. Camera poses are T_w_c of the LEFT camera
+// in its optical frame (z forward, x right, y down). Camera attitude is generated as yaw
+// (about world z, 0 = looking along +x), pitch (> 0 looks down) and roll (about the viewing
+// direction), see CameraPoseFromYawPitchRoll.
+//
+//   room      8 x 6 x 3 m room: clutter-textured walls, tiled floor, ceiling with light
+//             panels, a central pillar and six boxes (one stacked on another), 40 quads. The
+//             camera walks an ellipse (semi-axes 2.4 x 1.5 m, 1.4 m high) once round plus 2 %
+//             more, looking roughly along the path with a gentle look-around, so the last
+//             frames revisit the first view from ~0.3 m further on (loop closure). Speed 0.4-0.65
+//             m/s with the default 480 frames at 20 Hz; the loop is stretched to fit num_frames.
+//   corridor  2 m wide, 2.6 m high corridor with near-uniform walls carrying doors with
+//             frames, skirting boards, panel joints, a floor runner and ceiling light strips:
+//             straight edges plentiful, corners scarce. The camera walks along +x at 0.8 m/s
+//             with gentle sway (default 300 frames = 12 m; walks longer than 40 m are slowed
+//             down to 40 m to bound texture memory); the corridor is sized to the walk.
+//   fast_turn the room; the camera drifts slowly (0.16 m/s) on a 0.35 m circle while yawing
+//             left up to 85 deg/s and back (period 10 s; default 200 frames).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "pl_slam/geometry/se3.h"
+#include "pl_slam/io/trajectory.h"
+#include "pl_slam/sim/procedural_texture.h"
+#include "pl_slam/sim/world.h"
+
+namespace pl_slam::sim {
+
+/// The built-in scenes.
+enum class SceneKind { kRoom, kCorridor, kFastTurn };
+
+/// Parses "room", "corridor" or "fast_turn"; throws pl_slam::ConfigError naming the value
+/// and the allowed names.
+SceneKind ParseSceneKind(const std::string& name);
+
+/// The name ParseSceneKind accepts for this kind.
+std::string SceneKindName(SceneKind kind);
+
+/// Default sequence length (frames) of a scene.
+int DefaultNumFrames(SceneKind kind);
+
+/// A world and the trajectory of the left camera through it.
+struct Scene {
+  std::shared_ptr<const World> world;  ///< the static geometry and textures
+  Trajectory ground_truth;             ///< T_w_c of the left camera, stamps in seconds
+};
+
+/// Builds scene `kind` with num_frames poses (0 = DefaultNumFrames) stamped start_time_s +
+/// i / rate_hz. world_seed drives the procedural textures and layout jitter. Throws
+/// ConfigError on num_frames < 0 or rate_hz <= 0.
+Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_time_s,
+                 uint64_t world_seed);
+
+/// Left-camera pose at world position p_w with the given attitude: yaw about world z
+/// (0 = optical axis along +x), pitch > 0 tilts the optical axis down, roll about it.
+SE3 CameraPoseFromYawPitchRoll(const Eigen::Vector3d& p_w, double yaw, double pitch, double roll);
+
+/// Adds an axis-aligned box [min, max] as five quads (no bottom face, it would sit on the
+/// floor) or four (`with_top` false, e.g. a pillar reaching the ceiling), each face with its
+/// own texture of the given style. Returns the number of quads added.
+int AddBox(World* world, const Eigen::Vector3d& min_w, const Eigen::Vector3d& max_w, bool with_top,
+           SurfaceStyle style, double base_grey, double texel_m, uint64_t seed);
+
+}  // namespace pl_slam::sim
