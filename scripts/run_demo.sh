@@ -71,7 +71,6 @@ sleep 1.5  # let the last frames through the pipeline
 
 traj="${out}/trajectory_${scene}.tum"
 rosservice call /pl_slam/save_trajectory "{path: '${traj}', format: 'tum'}"
-rostopic echo -n 1 /pl_slam/status/frames_dropped 2>/dev/null | head -1 | sed 's/^/[demo] frames dropped: /' || true
 
 # Unload the nodelet before the manager stops (a loaded nodelet can crash a dying manager).
 rosrun nodelet nodelet unload /pl_slam /pl_slam_manager >/dev/null 2>&1 || true

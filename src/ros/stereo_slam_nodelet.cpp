@@ -322,14 +322,17 @@ bool StereoSlamNodelet::OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
     const TrajectoryFormat format = req.format.empty() ? TrajectoryFormat::kTum : ParseTrajectoryFormat(req.format);
     if (req.path.empty()) throw InputError("path is empty");
     Trajectory traj;
+    uint32_t processed = 0;
     {
       std::lock_guard<std::mutex> lock(system_mutex_);
       if (system_) traj = system_->trajectory();
+      processed = frames_processed_;
     }
     WriteTrajectory(req.path, traj, format);
     res.success = true;
     res.poses = static_cast<uint32_t>(traj.size());
-    res.message = "wrote " + std::to_string(traj.size()) + " poses to " + req.path;
+    res.message = "wrote " + std::to_string(traj.size()) + " poses to " + req.path + " (frames processed " +
+                  std::to_string(processed) + ", dropped " + std::to_string(dropped_.load()) + ")";
     NODELET_INFO("pl_slam: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;
