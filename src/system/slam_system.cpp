@@ -215,8 +215,11 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
       cv::Rodrigues(R_cv, rvec);
       cv::eigen2cv(Eigen::Vector3d(prior.translation()), tvec);
       std::vector<int> inliers;
-      const bool ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec, tvec, true, 200,
-                                         2.0f, 0.999, inliers, cv::SOLVEPNP_ITERATIVE);
+      // RANSAC on minimal EPnP sets (independent of the prior, which may be poor after a
+      // sudden motion change); the prior seeds only the final refinement below.
+      cv::Mat rvec_r, tvec_r;
+      const bool ok = cv::solvePnPRansac(object, image, K, cv::noArray(), rvec_r, tvec_r, false, 200,
+                                         2.0f, 0.999, inliers, cv::SOLVEPNP_EPNP);
       if (ok && static_cast<int>(inliers.size()) >= s.options.min_inliers) {
         std::vector<cv::Point3f> obj_in;
         std::vector<cv::Point2f> img_in;
