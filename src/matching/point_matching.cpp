@@ -1,0 +1,192 @@
+#include "pl_slam/matching/point_matching.h"
+
+#include <algorithm>
+#include <climits>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+
+namespace pl_slam {
+
+std::string PointMatchingOptions::Validate() const {
+  std::ostringstream os;
+  if (max_distance < 1 || max_distance > 256) os << "max_distance=" << max_distance << " must be in [1, 256]";
+  else if (!(stereo_ratio > 0.0 && stereo_ratio <= 1.0)) os << "stereo_ratio=" << stereo_ratio << " must be in (0, 1]";
+  else if (!(stereo_row_tolerance >= 0.0 && stereo_row_tolerance <= 10.0)) os << "stereo_row_tolerance=" << stereo_row_tolerance << " must be in [0, 10]";
+  else if (!(min_disparity >= 0.0 && min_disparity < max_disparity)) os << "min_disparity=" << min_disparity << " must be in [0, max_disparity)";
+  else if (!(max_disparity > 0.0 && max_disparity <= 1000.0)) os << "max_disparity=" << max_disparity << " must be in (0, 1000]";
+  else if (!(f2f_ratio > 0.0 && f2f_ratio <= 1.0)) os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
+  else if (!(search_radius > 0.0 && search_radius <= 1000.0)) os << "search_radius=" << search_radius << " must be in (0, 1000]";
+  return os.str();
+}
+
+int HammingDistance32(const uint8_t* a, const uint8_t* b) {
+  uint64_t x[4], y[4];
+  std::memcpy(x, a, 32);
+  std::memcpy(y, b, 32);
+  return __builtin_popcountll(x[0] ^ y[0]) + __builtin_popcountll(x[1] ^ y[1]) +
+         __builtin_popcountll(x[2] ^ y[2]) + __builtin_popcountll(x[3] ^ y[3]);
+}
+
+namespace {
+
+/// Refines the right-image column of a stereo match by SAD over an 11x11 window along the row,
+/// with a parabola through the best cost and its neighbours. Returns false when the minimum is
+/// on the search border or the fit is implausible (the coarse match is then kept).
+bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, double vl, double* ur) {
+  constexpr int kHalf = 5, kSearch = 3;
+  const int u0 = static_cast<int>(std::lround(ul)), v0 = static_cast<int>(std::lround(vl));
+  const int ur0 = static_cast<int>(std::lround(*ur));
+  if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols) return false;
+  if (ur0 - kHalf - kSearch < 0 || ur0 + kHalf + kSearch >= right.cols) return false;
+  const int lc = left.at<uint8_t>(v0, u0);
+  int cost[2 * kSearch + 1];
+  for (int d = -kSearch; d <= kSearch; ++d) {
+    const int rc = right.at<uint8_t>(v0, ur0 + d);
+    int sad = 0;
+    for (int dy = -kHalf; dy <= kHalf; ++dy) {
+      const uint8_t* lp = left.ptr<uint8_t>(v0 + dy) + u0 - kHalf;
+      const uint8_t* rp = right.ptr<uint8_t>(v0 + dy) + ur0 + d - kHalf;
+      // Each patch relative to its centre: robust to a brightness offset between the cameras.
+      for (int dx = 0; dx < 2 * kHalf + 1; ++dx) sad += std::abs((lp[dx] - lc) - (rp[dx] - rc));
+    }
+    cost[d + kSearch] = sad;
+  }
+  const int best = static_cast<int>(std::min_element(cost, cost + 2 * kSearch + 1) - cost);
+  if (best == 0 || best == 2 * kSearch) return false;
+  const double c0 = cost[best - 1], c1 = cost[best], c2 = cost[best + 1];
+  const double denom = 2.0 * (c0 + c2 - 2.0 * c1);
+  if (denom <= 0.0) return false;
+  const double delta = (c0 - c2) / denom;
+  if (delta < -1.0 || delta > 1.0) return false;
+  *ur = ur0 + (best - kSearch) + delta;
+  return true;
+}
+
+}  // namespace
+
+int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image, const cv::Mat& right_image,
+                      const std::vector<cv::KeyPoint>& left_kp, const cv::Mat& left_desc,
+                      const std::vector<cv::KeyPoint>& right_kp, const cv::Mat& right_desc,
+                      const PointMatchingOptions& options, PointFeatures* points) {
+  points->assign(left_kp.size(), PointFeature());
+  for (size_t i = 0; i < left_kp.size(); ++i) {
+    (*points)[i].uv = Eigen::Vector2d(left_kp[i].pt.x, left_kp[i].pt.y);
+    (*points)[i].octave = left_kp[i].octave;
+  }
+  if (left_kp.empty() || right_kp.empty() || left_desc.empty() || right_desc.empty()) return 0;
+  const int rows = std::max(1, right_image.rows > 0 ? right_image.rows : camera.height);
+
+  // Right keypoints by image row: a left keypoint only looks at its epipolar band.
+  std::vector<std::vector<int>> by_row(rows);
+  for (int j = 0; j < static_cast<int>(right_kp.size()); ++j) {
+    const int v = std::clamp(static_cast<int>(std::lround(right_kp[j].pt.y)), 0, rows - 1);
+    by_row[v].push_back(j);
+  }
+  std::vector<int> match_of_left(left_kp.size(), -1);
+  std::vector<int> best_left_of_right(right_kp.size(), -1), best_dist_of_right(right_kp.size(), INT_MAX);
+  for (int i = 0; i < static_cast<int>(left_kp.size()); ++i) {
+    const cv::KeyPoint& kl = left_kp[i];
+    const double tol = options.stereo_row_tolerance * std::pow(1.2, kl.octave);
+    const int r0 = std::max(0, static_cast<int>(std::floor(kl.pt.y - tol)));
+    const int r1 = std::min(rows - 1, static_cast<int>(std::ceil(kl.pt.y + tol)));
+    const uint8_t* dl = left_desc.ptr<uint8_t>(i);
+    int best = INT_MAX, second = INT_MAX, best_j = -1;
+    for (int r = r0; r <= r1; ++r) {
+      for (int j : by_row[r]) {
+        const cv::KeyPoint& kr = right_kp[j];
+        const double d = kl.pt.x - kr.pt.x;
+        if (d < options.min_disparity || d > options.max_disparity) continue;
+        if (std::abs(kl.octave - kr.octave) > 1) continue;
+        const int dist = HammingDistance32(dl, right_desc.ptr<uint8_t>(j));
+        if (dist < best) { second = best; best = dist; best_j = j; }
+        else if (dist < second) { second = dist; }
+        // The right keypoint's own best over every left candidate: the mutual check.
+        if (dist < best_dist_of_right[j]) { best_dist_of_right[j] = dist; best_left_of_right[j] = i; }
+      }
+    }
+    if (best_j < 0 || best > options.max_distance) continue;
+    if (second != INT_MAX && best >= options.stereo_ratio * second) continue;
+    match_of_left[i] = best_j;
+  }
+  int matched = 0;
+  for (int i = 0; i < static_cast<int>(left_kp.size()); ++i) {
+    const int j = match_of_left[i];
+    if (j < 0 || best_left_of_right[j] != i) continue;  // mutual best only
+    PointFeature& pf = (*points)[i];
+    double ur = right_kp[j].pt.x;
+    if (options.subpixel && !left_image.empty() && !right_image.empty()) {
+      RefineDisparity(left_image, right_image, pf.uv.x(), pf.uv.y(), &ur);
+    }
+    const double d = pf.uv.x() - ur;
+    if (d < options.min_disparity || d > options.max_disparity) continue;
+    pf.has_depth = true;
+    pf.disparity = d;
+    pf.p_c = camera.BackProject(pf.uv.x(), pf.uv.y(), d);
+    ++matched;
+  }
+  return matched;
+}
+
+std::vector<std::pair<int, int>> MatchPointsFrameToFrame(const StereoCamera& camera,
+                                                         const PointFeatures& prev, const cv::Mat& prev_desc,
+                                                         const PointFeatures& cur, const cv::Mat& cur_desc,
+                                                         const PointMatchingOptions& options,
+                                                         const SE3* T_cur_prev) {
+  std::vector<std::pair<int, int>> out;
+  if (prev.empty() || cur.empty() || prev_desc.empty() || cur_desc.empty()) return out;
+
+  // Grid index of the current points for the guided search.
+  constexpr int kCell = 32;
+  const int gw = std::max(1, (camera.width + kCell - 1) / kCell), gh = std::max(1, (camera.height + kCell - 1) / kCell);
+  std::vector<std::vector<int>> grid;
+  if (T_cur_prev) {
+    grid.resize(static_cast<size_t>(gw) * gh);
+    for (int j = 0; j < static_cast<int>(cur.size()); ++j) {
+      const int cx = std::clamp(static_cast<int>(cur[j].uv.x()) / kCell, 0, gw - 1);
+      const int cy = std::clamp(static_cast<int>(cur[j].uv.y()) / kCell, 0, gh - 1);
+      grid[cy * gw + cx].push_back(j);
+    }
+  }
+  std::vector<int> match_of_prev(prev.size(), -1);
+  std::vector<int> best_prev_of_cur(cur.size(), -1), best_dist_of_cur(cur.size(), INT_MAX);
+  const double r2 = options.search_radius * options.search_radius;
+  for (int i = 0; i < static_cast<int>(prev.size()); ++i) {
+    if (!prev[i].has_depth) continue;
+    const uint8_t* dp = prev_desc.ptr<uint8_t>(i);
+    int best = INT_MAX, second = INT_MAX, best_j = -1;
+    auto consider = [&](int j) {
+      if (std::abs(prev[i].octave - cur[j].octave) > 2) return;
+      const int dist = HammingDistance32(dp, cur_desc.ptr<uint8_t>(j));
+      if (dist < best) { second = best; best = dist; best_j = j; }
+      else if (dist < second) { second = dist; }
+      // The current point's own best over every previous candidate: the mutual check.
+      if (dist < best_dist_of_cur[j]) { best_dist_of_cur[j] = dist; best_prev_of_cur[j] = i; }
+    };
+    if (T_cur_prev) {
+      const Eigen::Vector3d p = (*T_cur_prev) * prev[i].p_c;
+      if (p.z() <= 0.05) continue;
+      const Eigen::Vector2d uv = camera.Project(p);
+      const int x0 = std::max(0, static_cast<int>((uv.x() - options.search_radius) / kCell));
+      const int x1 = std::min(gw - 1, static_cast<int>((uv.x() + options.search_radius) / kCell));
+      const int y0 = std::max(0, static_cast<int>((uv.y() - options.search_radius) / kCell));
+      const int y1 = std::min(gh - 1, static_cast<int>((uv.y() + options.search_radius) / kCell));
+      for (int gy = y0; gy <= y1; ++gy)
+        for (int gx = x0; gx <= x1; ++gx)
+          for (int j : grid[gy * gw + gx])
+            if ((cur[j].uv - uv).squaredNorm() <= r2) consider(j);
+    } else {
+      for (int j = 0; j < static_cast<int>(cur.size()); ++j) consider(j);
+    }
+    if (best_j < 0 || best > options.max_distance) continue;
+    if (second != INT_MAX && best >= options.f2f_ratio * second) continue;
+    match_of_prev[i] = best_j;
+  }
+  for (int i = 0; i < static_cast<int>(prev.size()); ++i) {
+    const int j = match_of_prev[i];
+    if (j >= 0 && best_prev_of_cur[j] == i) out.emplace_back(i, j);
+  }
+  return out;
+}
+
+}  // namespace pl_slam

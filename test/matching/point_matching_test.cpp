@@ -1,0 +1,111 @@
+// Stereo and frame-to-frame point matching against the synthetic world's exact depth and poses.
+#include <gtest/gtest.h>
+
+#include "pl_slam/features/point_features.h"
+#include "pl_slam/matching/point_matching.h"
+#include "pl_slam/sim/synthetic_sequence.h"
+
+namespace pl_slam {
+namespace {
+
+struct Detected {
+  PointFeatures points;
+  cv::Mat desc;
+  int stereo = 0;
+};
+
+Detected DetectAndMatch(const sim::SyntheticSequence& seq, int index, const PointMatchingOptions& mo) {
+  const StereoFrame f = seq.Render(index);
+  PointDetector det{PointDetectorOptions()};
+  std::vector<cv::KeyPoint> kl, kr;
+  cv::Mat dl, dr;
+  det.Detect(f.left, &kl, &dl);
+  det.Detect(f.right, &kr, &dr);
+  Detected out;
+  out.stereo = MatchStereoPoints(seq.camera(), f.left, f.right, kl, dl, kr, dr, mo, &out.points);
+  out.desc = dl;
+  return out;
+}
+
+sim::SyntheticSequence Room() {
+  sim::SequenceOptions o;
+  o.scene = sim::SceneKind::kRoom;
+  o.num_frames = 0;  // the scene's own length: realistic motion between frames
+  return sim::SyntheticSequence(o);
+}
+
+TEST(PointMatching, StereoDepthAgreesWithTheRenderedDepth) {
+  const auto seq = Room();
+  for (bool subpixel : {false, true}) {
+    PointMatchingOptions mo;
+    mo.subpixel = subpixel;
+    const Detected d = DetectAndMatch(seq, 10, mo);
+    const cv::Mat depth = seq.RenderDepth(10);
+    ASSERT_GT(d.stereo, 200) << "too few stereo matches";
+    int good = 0, total = 0;
+    std::vector<double> disp_err;
+    for (const auto& p : d.points) {
+      if (!p.has_depth) continue;
+      const float z = depth.at<float>(static_cast<int>(std::lround(p.uv.y())), static_cast<int>(std::lround(p.uv.x())));
+      if (z <= 0.f) continue;
+      ++total;
+      const double true_disp = seq.camera().DisparityFromDepth(z);
+      disp_err.push_back(std::abs(true_disp - p.disparity));
+      good += disp_err.back() < 1.0;
+    }
+    std::sort(disp_err.begin(), disp_err.end());
+    const double median = disp_err[disp_err.size() / 2];
+    // Precision of the matches: nearly all within a pixel of the true disparity.
+    // Coarse ORB positions are quantised by the pyramid level; the refined ones must be tight.
+    EXPECT_GT(static_cast<double>(good) / total, subpixel ? 0.97 : 0.85) << "subpixel=" << subpixel;
+    if (subpixel) EXPECT_LT(median, 0.3) << "sub-pixel refinement should give < 0.3 px median error";
+    std::cout << "subpixel=" << subpixel << ": " << d.stereo << " stereo matches, median |disparity error| "
+              << median << " px, within 1 px " << 100.0 * good / total << "%\n";
+  }
+}
+
+TEST(PointMatching, FrameToFrameMatchesAreConsistentWithTheTruePose) {
+  const auto seq = Room();
+  PointMatchingOptions mo;
+  const Detected a = DetectAndMatch(seq, 20, mo), b = DetectAndMatch(seq, 21, mo);
+  const SE3 T_cur_prev = seq.ground_truth()[21].T_w_c.inverse() * seq.ground_truth()[20].T_w_c;
+  for (bool guided : {false, true}) {
+    const SE3 prediction = SE3();  // a poor prediction (identity) must still work within the radius
+    const auto matches = MatchPointsFrameToFrame(seq.camera(), a.points, a.desc, b.points, b.desc, mo,
+                                                 guided ? &prediction : nullptr);
+    ASSERT_GT(matches.size(), 150u) << "guided=" << guided;
+    int correct = 0;
+    for (const auto& [i, j] : matches) {
+      const Eigen::Vector2d uv = seq.camera().Project(T_cur_prev * a.points[i].p_c);
+      correct += (uv - b.points[j].uv).norm() < 3.0;
+    }
+    EXPECT_GT(static_cast<double>(correct) / matches.size(), 0.97) << "guided=" << guided;
+  }
+}
+
+TEST(PointMatching, UnrelatedImagesGiveFewMatches) {
+  const auto seq = Room();
+  PointMatchingOptions mo;
+  const Detected a = DetectAndMatch(seq, 0, mo);
+  cv::Mat noise(480, 752, CV_8UC1);
+  cv::RNG(3).fill(noise, cv::RNG::UNIFORM, 0, 256);
+  PointDetector det{PointDetectorOptions()};
+  std::vector<cv::KeyPoint> kn;
+  cv::Mat dn;
+  det.Detect(noise, &kn, &dn);
+  PointFeatures pn;
+  MatchStereoPoints(seq.camera(), noise, noise, kn, dn, kn, dn, mo, &pn);
+  const auto matches = MatchPointsFrameToFrame(seq.camera(), a.points, a.desc, pn, dn, mo);
+  EXPECT_LT(matches.size(), 15u);
+}
+
+TEST(PointMatching, HammingDistance) {
+  uint8_t a[32] = {0}, b[32] = {0};
+  EXPECT_EQ(HammingDistance32(a, b), 0);
+  b[0] = 0xFF;
+  b[31] = 0x01;
+  EXPECT_EQ(HammingDistance32(a, b), 9);
+}
+
+}  // namespace
+}  // namespace pl_slam
