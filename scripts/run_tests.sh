@@ -19,8 +19,12 @@ set -e
 if [ "${build_rc}" -ne 0 ]; then
   echo "run_tests.sh: building or running the tests failed (exit ${build_rc}); see ${PL_SLAM_WS}/run_tests.log" >&2
 fi
-catkin_test_results --verbose "${results}" > "${PL_SLAM_WS}/test_results.txt" 2>&1
-verdict=$?
-grep -E "^Summary|Failure|Error" "${PL_SLAM_WS}/test_results.txt" | tail -20 || true
-/usr/bin/python3 "${HERE}/summarize_junit.py" "${results}"
-if [ "${build_rc}" -ne 0 ] || [ "${verdict}" -ne 0 ]; then exit 1; fi
+verdict=0
+catkin_test_results --verbose "${results}" > "${PL_SLAM_WS}/test_results.txt" 2>&1 || verdict=$?
+if [ "${verdict}" -ne 0 ]; then
+  # Show what failed: the failing test cases' messages from the XML reports.
+  grep -vE "^\s*$" "${PL_SLAM_WS}/test_results.txt" | tail -40 || true
+fi
+summary_rc=0
+/usr/bin/python3 "${HERE}/summarize_junit.py" "${results}" || summary_rc=$?
+if [ "${build_rc}" -ne 0 ] || [ "${verdict}" -ne 0 ] || [ "${summary_rc}" -ne 0 ]; then exit 1; fi
