@@ -28,14 +28,22 @@ for p in "${PKGS[@]}"; do
   fi
 done
 
+SUDO=""
+if [ "$(id -u)" -ne 0 ] && command -v sudo >/dev/null; then SUDO="sudo"; fi
+
+# roslaunch resolves 'localhost'; minimal containers may lack it.
+if ! grep -qE '^\s*127\.0\.0\.1\s.*\blocalhost\b' /etc/hosts 2>/dev/null; then
+  echo "127.0.0.1 localhost" | $SUDO tee -a /etc/hosts >/dev/null || \
+    echo "[pl_slam] warning: /etc/hosts has no localhost entry and cannot be fixed" >&2
+fi
+
 if [ "${#missing[@]}" -eq 0 ]; then
   echo "[pl_slam] all ${#PKGS[@]} system packages present"
   exit 0
 fi
 
-SUDO=""
 if [ "$(id -u)" -ne 0 ]; then
-  if command -v sudo >/dev/null; then SUDO="sudo"; else
+  if [ -z "$SUDO" ]; then
     echo "[pl_slam] error: missing packages (${missing[*]}) and not root; rerun as root" >&2
     exit 1
   fi
@@ -44,7 +52,3 @@ echo "[pl_slam] installing ${#missing[@]} missing packages: ${missing[*]}"
 $SUDO apt-get update -q
 $SUDO apt-get install -y -q --no-install-recommends "${missing[@]}"
 
-# roslaunch resolves 'localhost'; minimal containers may lack it.
-if ! grep -qE '^\s*127\.0\.0\.1\s.*\blocalhost\b' /etc/hosts 2>/dev/null; then
-  echo "127.0.0.1 localhost" | $SUDO tee -a /etc/hosts >/dev/null
-fi

@@ -17,6 +17,7 @@
 #include "pl_slam/util/cli.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
+#include "pl_slam/util/option_table.h"
 
 namespace {
 
@@ -30,8 +31,10 @@ constexpr char kUsage[] =
     "  --left-info T         bag: left camera_info topic (default /cam0/camera_info)\n"
     "  --right-info T        bag: right camera_info topic (default /cam1/camera_info)\n"
     "  --gt-topic T          bag: ground-truth PoseStamped topic (default /ground_truth/pose)\n"
-    "  --max-points N        ORB keypoints per image (default 1000)\n"
-    "  --min-inliers N       inliers below which tracking is lost (default 15)\n"
+    "  --config FILE.yaml    options file (see config/*.yaml; keys as printed by --print-config)\n"
+    "  --mode M              features for tracking: points | lines | points_lines\n"
+    "  --set K=V[,K=V...]    override options, e.g. --set tracker.points.max_points=600\n"
+    "  --print-config        print every option with its value and meaning, then exit\n"
     "  --quiet               only the summary\n"
     "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
     "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
@@ -77,9 +80,21 @@ std::string TimingCsv(const std::vector<TimingRow>& rows) {
 int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(argc, argv,
                                 {"out", "max-frames", "left-topic", "right-topic", "left-info",
-                                 "right-info", "gt-topic", "max-points", "min-inliers"},
-                                {"quiet", "help"});
+                                 "right-info", "gt-topic", "config", "mode", "set"},
+                                {"quiet", "help", "print-config"});
   if (cl.Has("help")) { std::cout << kUsage; return 0; }
+  pl_slam::SystemOptions options;
+  const pl_slam::OptionTable table = pl_slam::MakeOptionTable(&options);
+  if (cl.Has("config")) pl_slam::LoadYamlOptions(cl.Get("config", ""), table);
+  if (cl.Has("mode")) table.Set("tracker.mode", cl.Get("mode", ""));
+  if (cl.Has("set")) {
+    std::stringstream ss(cl.Get("set", ""));
+    std::string assignment;
+    while (std::getline(ss, assignment, ',')) table.SetAssignment(assignment);
+  }
+  if (cl.Has("print-config")) { std::cout << table.Describe(); return 0; }
+  const std::string invalid = options.Validate();
+  if (!invalid.empty()) throw pl_slam::ConfigError(invalid);
   if (cl.positional().size() != 1) { std::cerr << kUsage; return 2; }
   const std::string input = cl.positional()[0];
   const std::string out_dir = cl.Get("out", "output/offline");
@@ -87,7 +102,7 @@ int Run(int argc, char** argv) {
   if (cl.Has("quiet")) pl_slam::SetLogLevel(pl_slam::LogLevel::kWarn);
 
   std::unique_ptr<pl_slam::StereoSource> source;
-  if (std::filesystem::is_regular_file(input) || input.size() > 4 && input.substr(input.size() - 4) == ".bag") {
+  if (std::filesystem::is_regular_file(input) || (input.size() > 4 && input.substr(input.size() - 4) == ".bag")) {
     pl_slam::ros_layer::BagTopics topics;
     topics.left_image = cl.Get("left-topic", topics.left_image);
     topics.right_image = cl.Get("right-topic", topics.right_image);
@@ -99,12 +114,10 @@ int Run(int argc, char** argv) {
     source = pl_slam::OpenDatasetFolder(input);
   }
 
-  pl_slam::SystemOptions options;
-  options.max_points = cl.GetInt("max-points", options.max_points);
-  options.min_inliers = cl.GetInt("min-inliers", options.min_inliers);
   const pl_slam::StereoCamera& cam = source->camera();
   std::cout << "pl_slam_offline: " << source->Describe() << ", " << source->size() << " frames, "
-            << cam.width << "x" << cam.height << ", fx=" << cam.fx << " baseline=" << cam.baseline << " m\n";
+            << cam.width << "x" << cam.height << ", fx=" << cam.fx << " baseline=" << cam.baseline
+            << " m, mode " << pl_slam::FeatureModeName(options.tracker.mode) << "\n";
   pl_slam::SlamSystem system(cam, options);
 
   std::filesystem::create_directories(out_dir);
