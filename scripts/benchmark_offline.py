@@ -5,6 +5,7 @@ absent), scores each with pl_slam_evaluate (SE(3)-aligned ATE, RPE, coverage) an
 Markdown table for docs/BENCHMARKS.md, plus per-stage timing medians.
 
     scripts/benchmark_offline.py [--out DIR] [--only NAME,NAME] [--repeat N]
+                                 [--modes points,lines,points_lines] [--set K=V,...]
 
 Needs a built workspace (scripts/setup.sh). Standard library only; Debian's python3.
 """
@@ -42,19 +43,21 @@ def percentile(values, q):
     return v[min(len(v) - 1, int(q * (len(v) - 1) + 0.5))]
 
 
-def bench(name, source, out, repeat):
+def bench(name, source, out, repeat, mode, overrides):
     runs = []
     for k in range(repeat):
-        d = os.path.join(out, name, "run%d" % k)
+        d = os.path.join(out, mode, name, "run%d" % k)
         os.makedirs(d, exist_ok=True)
-        run([os.path.join(BIN, "pl_slam_offline"), source, "--out", d, "--quiet"],
-            os.path.join(d, "offline.log"))
+        cmd = [os.path.join(BIN, "pl_slam_offline"), source, "--out", d, "--quiet", "--mode", mode]
+        if overrides:
+            cmd += ["--set", overrides]
+        run(cmd, os.path.join(d, "offline.log"))
         runs.append(d)
     d = runs[0]
     run([os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(d, "trajectory.tum"),
          "--gt", os.path.join(d, "groundtruth.tum"), "--frame-times", os.path.join(d, "frames.txt"),
          "--align", "se3", "--json", os.path.join(d, "eval.json"),
-         "--plot", os.path.join(out, name + ".png"), "--name", name],
+         "--plot", os.path.join(out, mode, name + ".png"), "--name", "%s (%s)" % (name, mode)],
         os.path.join(d, "eval.log"))
     with open(os.path.join(d, "eval.json")) as f:
         ev = json.load(f)
@@ -70,10 +73,11 @@ def bench(name, source, out, repeat):
     drift = [r for r in ev["rpe_distance"] if r["segments"] > 0]
     return {
         "name": name,
+        "mode": mode,
         "frames": ev["coverage"]["frames"],
         "coverage": ev["coverage"]["ratio"],
         "length": ev["gt_path_length_m"],
-        "ate": ev["ate"]["translation"]["rmse"],
+        "ate": ev["ate"]["translation_m"]["rmse"],
         "rpe1_t": rpe1["translation_m"]["rmse"] if rpe1 else float("nan"),
         "rpe1_r": rpe1["rotation_deg"]["rmse"] if rpe1 else float("nan"),
         "drift": drift[-1]["translation_pct"] if drift else float("nan"),
@@ -90,6 +94,8 @@ def main():
     ap.add_argument("--out", default=os.path.join(ROOT, "output", "bench"))
     ap.add_argument("--only", default="")
     ap.add_argument("--repeat", type=int, default=1, help="runs per sequence for timing")
+    ap.add_argument("--modes", default="points,points_lines", help="tracker feature modes to compare")
+    ap.add_argument("--set", default="", help="option overrides passed to pl_slam_offline --set")
     args = ap.parse_args()
     only = set(filter(None, args.only.split(",")))
     os.makedirs(args.out, exist_ok=True)
@@ -115,22 +121,26 @@ def main():
 
     results = []
     for name, path in sequences:
-        print("running %s ..." % name, flush=True)
-        results.append(bench(name, path, args.out, args.repeat))
+        for mode in args.modes.split(","):
+            print("running %s (%s) ..." % (name, mode), flush=True)
+            try:
+                results.append(bench(name, path, args.out, args.repeat, mode, args.set))
+            except RuntimeError as e:
+                print("  FAILED: %s" % str(e).splitlines()[0])
 
     print()
     print("machine: %s, %d cores, %s" % (platform.node(), os.cpu_count(), platform.processor() or platform.machine()))
     print()
-    print("| sequence | frames | coverage | path m | ATE RMSE m (SE3) | RPE/frame m | RPE/frame deg | drift %% (longest seg) | median ms | p95 ms | IQR ms |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| sequence | mode | frames | coverage | path m | ATE RMSE m (SE3) | RPE/frame m | RPE/frame deg | drift %% (longest seg) | median ms | p95 ms | IQR ms |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
-        print("| %s | %d | %.1f%% | %.1f | %.4f | %.4f | %.3f | %.2f (%g m) | %.1f | %.1f | %.1f |" % (
-            r["name"], r["frames"], 100 * r["coverage"], r["length"], r["ate"], r["rpe1_t"],
+        print("| %s | %s | %d | %.1f%% | %.1f | %.4f | %.4f | %.3f | %.2f (%g m) | %.1f | %.1f | %.1f |" % (
+            r["name"], r["mode"], r["frames"], 100 * r["coverage"], r["length"], r["ate"], r["rpe1_t"],
             r["rpe1_r"], r["drift"], r["drift_len"], r["median_ms"], r["p95_ms"], r["spread_ms"]))
     print()
     print("per-stage median ms:")
     for r in results:
-        print("  %-12s %s" % (r["name"], ", ".join("%s %.1f" % kv for kv in r["stages"].items())))
+        print("  %-12s %-13s %s" % (r["name"], r["mode"], ", ".join("%s %.1f" % kv for kv in r["stages"].items())))
     with open(os.path.join(args.out, "results.json"), "w") as f:
         json.dump(results, f, indent=1)
     return 0

@@ -59,7 +59,8 @@ bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, doubl
   if (denom <= 0.0) return false;
   const double delta = (c0 - c2) / denom;
   if (delta < -1.0 || delta > 1.0) return false;
-  *ur = ur0 + (best - kSearch) + delta;
+  // The patches were compared at the rounded left column u0: carry its offset to the right.
+  *ur = ur0 + (best - kSearch) + delta + (ul - u0);
   return true;
 }
 

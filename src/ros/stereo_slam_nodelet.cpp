@@ -1,5 +1,7 @@
 #include "pl_slam/ros/stereo_slam_nodelet.h"
 
+#include <algorithm>
+#include <iomanip>
 #include <set>
 #include <sstream>
 
@@ -69,60 +71,69 @@ StereoSlamNodelet::~StereoSlamNodelet() {
   // callback can post into a dead mailbox.
 }
 
+OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
+  OptionTable table = MakeOptionTable(&o->system);
+  table.Add("map_frame", &o->map_frame, "fixed world frame (REP-105)");
+  table.Add("odom_frame", &o->odom_frame, "odometry frame (REP-105)");
+  table.Add("base_frame", &o->base_frame, "robot body frame");
+  table.Add("camera_frame", &o->camera_frame, "left optical frame; empty = the image header's frame_id");
+  table.Add("publish_tf", &o->publish_tf, "broadcast map -> odom -> base_frame");
+  table.Add("approximate_sync", &o->approximate_sync, "ApproximateTime instead of ExactTime synchronisation");
+  table.Add("sync_tolerance", &o->sync_tolerance, "largest stamp difference with approximate sync, seconds");
+  table.Add("queue_size", &o->queue_size, "subscriber and synchroniser queue length");
+  return table;
+}
+
+namespace {
+
+/// A parameter value as the text OptionTable parses; false for lists and maps.
+bool ParamToText(const XmlRpc::XmlRpcValue& v, std::string* out) {
+  std::ostringstream os;
+  switch (v.getType()) {
+    case XmlRpc::XmlRpcValue::TypeBoolean: os << (static_cast<bool>(const_cast<XmlRpc::XmlRpcValue&>(v)) ? "true" : "false"); break;
+    case XmlRpc::XmlRpcValue::TypeInt: os << static_cast<int>(const_cast<XmlRpc::XmlRpcValue&>(v)); break;
+    case XmlRpc::XmlRpcValue::TypeDouble: os << std::setprecision(17) << static_cast<double>(const_cast<XmlRpc::XmlRpcValue&>(v)); break;
+    case XmlRpc::XmlRpcValue::TypeString: os << static_cast<std::string>(const_cast<XmlRpc::XmlRpcValue&>(v)); break;
+    default: return false;
+  }
+  *out = os.str();
+  return true;
+}
+
+}  // namespace
+
 bool StereoSlamNodelet::LoadOptions(ros::NodeHandle& pnh) {
-  // Unknown keys are refused: a misspelt parameter would otherwise silently keep its default.
-  static const std::set<std::string> kKnown = {
-      "map_frame", "odom_frame", "base_frame", "camera_frame", "publish_tf", "approximate_sync",
-      "sync_tolerance", "queue_size", "max_points", "max_disparity", "min_disparity",
-      "min_inliers"};
+  // Every parameter in the private namespace must be a known option: a misspelt key would
+  // otherwise silently keep its default. Nested namespaces map to dotted keys
+  // (~tracker/points/max_points -> tracker.points.max_points).
+  const OptionTable table = MakeNodeletOptionTable(&options_);
   std::vector<std::string> names;
   ros::param::getParamNames(names);
   const std::string prefix = pnh.getNamespace() + "/";
   for (const std::string& n : names) {
     if (n.rfind(prefix, 0) != 0) continue;
-    const std::string key = n.substr(prefix.size());
-    if (key.find('/') != std::string::npos) continue;  // sub-namespaces (e.g. image_transport)
-    if (!kKnown.count(key)) {
-      NODELET_FATAL("pl_slam: unknown parameter '%s' (known: map_frame, odom_frame, base_frame, "
-                    "camera_frame, publish_tf, approximate_sync, sync_tolerance, queue_size, "
-                    "max_points, max_disparity, min_disparity, min_inliers); refusing to start",
-                    n.c_str());
+    std::string key = n.substr(prefix.size());
+    std::replace(key.begin(), key.end(), '/', '.');
+    XmlRpc::XmlRpcValue value;
+    std::string text;
+    if (!pnh.getParam(n.substr(prefix.size()), value) || !ParamToText(value, &text)) {
+      NODELET_FATAL("pl_slam: parameter %s must be a single value; refusing to start", n.c_str());
+      return false;
+    }
+    try {
+      table.Set(key, text);
+    } catch (const ConfigError& e) {
+      NODELET_FATAL("pl_slam: parameter %s: %s (print the known keys with `pl_slam_offline "
+                    "--print-config`); refusing to start", n.c_str(), e.what());
       return false;
     }
   }
-  bool ok = true;
-  auto get = [&](const std::string& key, auto& value) {
-    if (!pnh.hasParam(key)) return;
-    if (!pnh.getParam(key, value)) {
-      NODELET_FATAL("pl_slam: parameter '%s/%s' has the wrong type; refusing to start",
-                    pnh.getNamespace().c_str(), key.c_str());
-      ok = false;
-    }
-  };
-  get("map_frame", options_.map_frame);
-  get("odom_frame", options_.odom_frame);
-  get("base_frame", options_.base_frame);
-  get("camera_frame", options_.camera_frame);
-  get("publish_tf", options_.publish_tf);
-  get("approximate_sync", options_.approximate_sync);
-  get("sync_tolerance", options_.sync_tolerance);
-  get("queue_size", options_.queue_size);
-  get("max_points", options_.system.max_points);
-  get("max_disparity", options_.system.max_disparity);
-  get("min_disparity", options_.system.min_disparity);
-  get("min_inliers", options_.system.min_inliers);
-  if (!ok) return false;
   const std::string err = options_.Validate();
   if (!err.empty()) {
     NODELET_FATAL("pl_slam: bad parameter %s; refusing to start", err.c_str());
     return false;
   }
-  NODELET_INFO("pl_slam: map_frame=%s odom_frame=%s base_frame=%s publish_tf=%d sync=%s "
-               "queue_size=%d max_points=%d max_disparity=%.1f min_disparity=%.2f min_inliers=%d",
-               options_.map_frame.c_str(), options_.odom_frame.c_str(), options_.base_frame.c_str(),
-               options_.publish_tf, options_.approximate_sync ? "approximate" : "exact",
-               options_.queue_size, options_.system.max_points, options_.system.max_disparity,
-               options_.system.min_disparity, options_.system.min_inliers);
+  NODELET_INFO("pl_slam: effective configuration:\n%s", table.Describe().c_str());
   return true;
 }
 

@@ -38,7 +38,7 @@ TEST(SlamSystemBadInput, InvalidConfigurationIsRefused) {
   bad.baseline = -1.0;
   EXPECT_THROW(SlamSystem(bad, SystemOptions()), ConfigError);
   SystemOptions opt;
-  opt.max_points = 0;
+  opt.tracker.points.max_points = 0;
   try {
     SlamSystem s(Camera(), opt);
     FAIL();
@@ -88,6 +88,28 @@ TEST(SlamSystemBadInput, FeaturelessFramesAfterTrackingGiveLostThenRecover) {
   FrameResult back = sys.Process(Frame(textured, right, 3));
   EXPECT_EQ(back.state, TrackingState::kTracking);
   ExpectFinite(back);
+}
+
+}  // namespace
+}  // namespace pl_slam
+
+namespace pl_slam {
+namespace {
+
+TEST(SystemOptionTable, EveryKeyRoundTripsAndDefaultsAreValid) {
+  SystemOptions options;
+  EXPECT_EQ(options.Validate(), "");
+  const OptionTable table = MakeOptionTable(&options);
+  EXPECT_GT(table.keys().size(), 50u);
+  for (const std::string& key : table.keys()) {
+    const std::string value = table.Get(key);
+    EXPECT_NO_THROW(table.Set(key, value)) << key << "=" << value;
+    EXPECT_EQ(table.Get(key), value) << key;
+  }
+  EXPECT_EQ(options.Validate(), "");
+  table.Set("tracker.points.max_points", "3");
+  EXPECT_NE(options.Validate().find("tracker.points.max_points"), std::string::npos) << options.Validate();
+  EXPECT_THROW(table.Set("tracker.mode", "corners"), ConfigError);
 }
 
 }  // namespace

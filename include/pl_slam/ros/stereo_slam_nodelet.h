@@ -41,11 +41,14 @@ struct NodeletOptions {
   bool approximate_sync = false;         ///< ApproximateTime instead of ExactTime
   double sync_tolerance = 0.005;         ///< max stamp difference (s) with approximate sync
   int queue_size = 5;                    ///< subscriber and synchroniser queue length
-  SystemOptions system;                  ///< core pipeline options
+  SystemOptions system;                  ///< core pipeline options ("tracker.*" keys)
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
   std::string Validate() const;
 };
+
+/// The option table of the nodelet: its own keys plus every core key.
+OptionTable MakeNodeletOptionTable(NodeletOptions* options);
 
 /// Nodelet `pl_slam/StereoSlamNodelet`. Inputs: left/image, right/image (image_transport),
 /// left/camera_info, right/camera_info. Outputs (private namespace): odom, pose, path,

@@ -11,6 +11,8 @@
 #include "pl_slam/geometry/se3.h"
 #include "pl_slam/io/stereo_frame.h"
 #include "pl_slam/io/trajectory.h"
+#include "pl_slam/tracking/stereo_tracker.h"
+#include "pl_slam/util/option_table.h"
 
 namespace pl_slam {
 
@@ -20,16 +22,17 @@ enum class TrackingState { kNotInitialized = 0, kTracking = 1, kLost = 2 };
 /// Human-readable name of a tracking state ("NOT_INITIALIZED", "TRACKING", "LOST").
 const char* TrackingStateName(TrackingState state);
 
-/// Options of the whole system (the per-module structs grow here as modules land).
+/// Options of the whole system (one nested struct per module).
 struct SystemOptions {
-  int max_points = 1000;          ///< ORB keypoints per image
-  double max_disparity = 200.0;   ///< stereo disparity search range, pixels
-  double min_disparity = 0.5;     ///< below this a stereo match is treated as at infinity
-  int min_inliers = 15;           ///< fewer motion inliers than this means tracking is lost
+  TrackerOptions tracker;  ///< "tracker.*": front end (features, matching, motion, keyframes)
 
-  /// Empty when valid, else "key=value: allowed range" for the first bad field.
+  /// Empty when valid, else "key=value: allowed range" naming the first bad key.
   std::string Validate() const;
 };
+
+/// The table of every option key of `options` ("tracker.points.max_points", ...), for YAML
+/// files, ROS parameters and command-line overrides.
+OptionTable MakeOptionTable(SystemOptions* options);
 
 /// What the system reports for one frame.
 struct FrameResult {
@@ -43,6 +46,7 @@ struct FrameResult {
   int lines_detected = 0;
   int point_inliers = 0;
   int line_inliers = 0;
+  std::string warning;  ///< why the frame was not tracked, when it was not
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
   double total_ms = 0.0;
 };

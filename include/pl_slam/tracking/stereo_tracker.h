@@ -1,0 +1,91 @@
+// Stereo visual odometry with points and line segments (paper Section IV): features in both
+// images, stereo and frame-to-frame matching, robust motion estimation, keyframe selection.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pl_slam/camera/stereo_camera.h"
+#include "pl_slam/features/line_features.h"
+#include "pl_slam/features/point_features.h"
+#include "pl_slam/features/stereo_features.h"
+#include "pl_slam/io/stereo_frame.h"
+#include "pl_slam/matching/line_matching.h"
+#include "pl_slam/matching/point_matching.h"
+#include "pl_slam/tracking/keyframe_selector.h"
+#include "pl_slam/tracking/motion_estimator.h"
+
+namespace pl_slam {
+
+/// Which features drive tracking, so the benefit of lines can be measured.
+enum class FeatureMode { kPoints, kLines, kPointsAndLines };
+
+/// Parses "points", "lines" or "points_lines"; throws ConfigError naming the value.
+FeatureMode ParseFeatureMode(const std::string& name);
+/// "points", "lines" or "points_lines".
+const char* FeatureModeName(FeatureMode mode);
+
+/// Options of the stereo tracker and of the modules it drives.
+struct TrackerOptions {
+  FeatureMode mode = FeatureMode::kPointsAndLines;  ///< features used for motion
+  bool parallel = true;                             ///< process the right image in a second thread
+  int min_inliers = 15;          ///< fewer point + line inliers than this: tracking lost
+  double max_translation = 2.0;  ///< larger frame-to-frame motion (m) is rejected as a failure
+  double max_rotation_deg = 60;  ///< larger frame-to-frame rotation (deg) is rejected
+  double line_weight = 1.0;      ///< information of a line residual relative to a point's
+  PointDetectorOptions points;   ///< "points.*"
+  PointMatchingOptions point_matching;  ///< "point_matching.*"
+  LineDetectorOptions lines;            ///< "lines.*"
+  LineMatchingOptions line_matching;    ///< "line_matching.*"
+  MotionEstimatorOptions motion;        ///< "motion.*"
+  KeyframeSelectorOptions keyframes;    ///< "keyframes.*"
+
+  /// Empty when valid, else "key=value must be ..." naming the first bad key (with prefix).
+  std::string Validate() const;
+};
+
+/// State after a frame.
+enum class TrackerState { kNotInitialized = 0, kTracking = 1, kLost = 2 };
+
+/// What the tracker reports for one frame.
+struct TrackerResult {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  TrackerState state = TrackerState::kNotInitialized;
+  bool pose_valid = false;  ///< T_w_c was estimated for this frame
+  SE3 T_w_c;                ///< pose (the last good one when not valid)
+  SE3 T_prev_cur;           ///< increment from the previous frame (identity when not valid)
+  Matrix6d covariance_prev_cur = Matrix6d::Identity();  ///< of T_prev_cur, [rho; phi]
+  bool is_keyframe = false;
+  KeyframeReason keyframe_reason = KeyframeReason::kNone;
+  int points_detected = 0, lines_detected = 0;           ///< left image
+  int points_stereo = 0, lines_stereo = 0;               ///< with depth
+  int point_matches = 0, line_matches = 0;               ///< frame-to-frame
+  int point_inliers = 0, line_inliers = 0;               ///< kept by motion estimation
+  std::string warning;                                   ///< why tracking failed, when it did
+  std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
+};
+
+/// Frame-to-frame stereo tracker. One instance per camera; Track() from one thread.
+class StereoTracker {
+ public:
+  /// Throws ConfigError on an invalid camera or options.
+  StereoTracker(const StereoCamera& camera, const TrackerOptions& options);
+  ~StereoTracker();
+
+  /// Tracks one rectified stereo frame (CV_8UC1, camera size; checked by the caller).
+  TrackerResult Track(const StereoFrame& frame);
+
+  /// Forgets the previous frame: the next frame restarts at the identity.
+  void Reset();
+
+  /// Features of the last frame (for the debug image and the map).
+  const StereoFeatures& last_features() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pl_slam

@@ -1,0 +1,289 @@
+#include "pl_slam/tracking/stereo_tracker.h"
+
+#include <chrono>
+#include <cmath>
+#include <future>
+#include <sstream>
+
+#include "pl_slam/util/error.h"
+#include "pl_slam/util/logging.h"
+
+namespace pl_slam {
+
+FeatureMode ParseFeatureMode(const std::string& name) {
+  if (name == "points") return FeatureMode::kPoints;
+  if (name == "lines") return FeatureMode::kLines;
+  if (name == "points_lines") return FeatureMode::kPointsAndLines;
+  throw ConfigError("mode='" + name + "' must be one of points, lines, points_lines");
+}
+
+const char* FeatureModeName(FeatureMode mode) {
+  switch (mode) {
+    case FeatureMode::kPoints:
+      return "points";
+    case FeatureMode::kLines:
+      return "lines";
+    case FeatureMode::kPointsAndLines:
+      return "points_lines";
+  }
+  return "?";
+}
+
+std::string TrackerOptions::Validate() const {
+  std::ostringstream os;
+  if (min_inliers < 6 || min_inliers > 1000)
+    os << "min_inliers=" << min_inliers << " must be in [6, 1000]";
+  else if (!(max_translation > 0.0 && max_translation <= 100.0))
+    os << "max_translation=" << max_translation << " must be in (0, 100]";
+  else if (!(max_rotation_deg > 0.0 && max_rotation_deg <= 180.0))
+    os << "max_rotation_deg=" << max_rotation_deg << " must be in (0, 180]";
+  else if (!(line_weight > 0.0 && line_weight <= 100.0))
+    os << "line_weight=" << line_weight << " must be in (0, 100]";
+  if (!os.str().empty()) return os.str();
+  const std::pair<const char*, std::string> nested[] = {
+      {"points.", points.Validate()}, {"point_matching.", point_matching.Validate()},
+      {"lines.", lines.Validate()},   {"line_matching.", line_matching.Validate()},
+      {"motion.", motion.Validate()}, {"keyframes.", keyframes.Validate()}};
+  for (const auto& [prefix, err] : nested)
+    if (!err.empty()) return prefix + err;
+  return "";
+}
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+/// Detections of one image before stereo matching.
+struct ImageFeatures {
+  std::vector<cv::KeyPoint> keypoints;
+  cv::Mat point_descriptors;
+  LineFeatures lines;
+  cv::Mat line_descriptors;
+};
+
+}  // namespace
+
+struct StereoTracker::Impl {
+  StereoCamera camera;
+  TrackerOptions options;
+  PointDetector point_detector;
+  LineDetector line_detector;
+  KeyframeSelector selector;
+  bool use_points = true, use_lines = true;
+
+  bool has_previous = false;
+  bool initialized = false;
+  StereoFeatures previous;
+  SE3 T_w_c;
+  SE3 velocity_cur_prev;  // last T_cur_prev: the constant-velocity prior
+  bool velocity_valid = false;
+  TrackerState state = TrackerState::kNotInitialized;
+
+  Impl(const StereoCamera& cam, const TrackerOptions& opt)
+      : camera(cam),
+        options(opt),
+        point_detector(opt.points),
+        line_detector(opt.lines),
+        selector(opt.keyframes) {
+    use_points = opt.mode != FeatureMode::kLines;
+    use_lines = opt.mode != FeatureMode::kPoints;
+  }
+
+  void Detect(const cv::Mat& image, ImageFeatures* f) const {
+    if (use_points) point_detector.Detect(image, &f->keypoints, &f->point_descriptors);
+    if (use_lines) line_detector.Detect(image, &f->lines, &f->line_descriptors);
+  }
+};
+
+StereoTracker::StereoTracker(const StereoCamera& camera, const TrackerOptions& options) {
+  const std::string cam_err = camera.Validate();
+  if (!cam_err.empty()) throw ConfigError("camera: " + cam_err);
+  const std::string err = options.Validate();
+  if (!err.empty()) throw ConfigError(err);
+  impl_ = std::make_unique<Impl>(camera, options);
+}
+
+StereoTracker::~StereoTracker() = default;
+
+const StereoFeatures& StereoTracker::last_features() const { return impl_->previous; }
+
+void StereoTracker::Reset() {
+  Impl& s = *impl_;
+  s.has_previous = false;
+  s.initialized = false;
+  s.previous = StereoFeatures();
+  s.T_w_c = SE3();
+  s.velocity_cur_prev = SE3();
+  s.velocity_valid = false;
+  s.state = TrackerState::kNotInitialized;
+  s.selector.Reset();
+}
+
+TrackerResult StereoTracker::Track(const StereoFrame& frame) {
+  Impl& s = *impl_;
+  TrackerResult result;
+  result.T_w_c = s.T_w_c;
+
+  // 1. Features in both images; the right image in a second thread.
+  auto t0 = Clock::now();
+  ImageFeatures left, right;
+  if (s.options.parallel) {
+    std::future<void> right_job =
+        std::async(std::launch::async, [&] { s.Detect(frame.right, &right); });
+    s.Detect(frame.left, &left);
+    right_job.get();
+  } else {
+    s.Detect(frame.left, &left);
+    s.Detect(frame.right, &right);
+  }
+  result.stage_ms.emplace_back("features", MsSince(t0));
+
+  // 2. Stereo matching and triangulation.
+  t0 = Clock::now();
+  StereoFeatures cur;
+  if (s.use_points) {
+    result.points_stereo = MatchStereoPoints(
+        s.camera, frame.left, frame.right, left.keypoints, left.point_descriptors, right.keypoints,
+        right.point_descriptors, s.options.point_matching, &cur.points);
+    cur.point_descriptors = left.point_descriptors;
+  }
+  if (s.use_lines) {
+    result.lines_stereo =
+        MatchStereoLines(s.camera, &left.lines, left.line_descriptors, right.lines,
+                         right.line_descriptors, s.options.line_matching);
+    cur.lines = std::move(left.lines);
+    cur.line_descriptors = left.line_descriptors;
+  }
+  result.points_detected = static_cast<int>(cur.points.size());
+  result.lines_detected = static_cast<int>(cur.lines.size());
+  result.stage_ms.emplace_back("stereo", MsSince(t0));
+
+  // 3. Frame-to-frame matching, guided by the constant-velocity prior when there is one.
+  t0 = Clock::now();
+  const SE3 prior = s.velocity_valid ? s.velocity_cur_prev : SE3();
+  std::vector<std::pair<int, int>> point_matches, line_matches;
+  if (s.has_previous) {
+    if (s.use_points) {
+      point_matches = MatchPointsFrameToFrame(
+          s.camera, s.previous.points, s.previous.point_descriptors, cur.points,
+          cur.point_descriptors, s.options.point_matching, s.velocity_valid ? &prior : nullptr);
+      if (s.velocity_valid && static_cast<int>(point_matches.size()) < 2 * s.options.min_inliers) {
+        // The prediction may be wrong (sudden motion change): search everywhere.
+        point_matches =
+            MatchPointsFrameToFrame(s.camera, s.previous.points, s.previous.point_descriptors,
+                                    cur.points, cur.point_descriptors, s.options.point_matching);
+      }
+    }
+    if (s.use_lines) {
+      LinePrediction prediction;
+      prediction.T_cur_prev = prior;
+      prediction.camera = s.camera;
+      line_matches =
+          MatchLines(s.previous.lines, s.previous.line_descriptors, cur.lines, cur.line_descriptors,
+                     s.options.line_matching, s.velocity_valid ? &prediction : nullptr);
+      if (s.velocity_valid && static_cast<int>(line_matches.size()) < s.options.min_inliers) {
+        line_matches = MatchLines(s.previous.lines, s.previous.line_descriptors, cur.lines,
+                                  cur.line_descriptors, s.options.line_matching);
+      }
+    }
+  }
+  result.point_matches = static_cast<int>(point_matches.size());
+  result.line_matches = static_cast<int>(line_matches.size());
+  result.stage_ms.emplace_back("matching", MsSince(t0));
+
+  // 4. Robust motion estimation.
+  t0 = Clock::now();
+  bool tracked = false;
+  if (s.has_previous) {
+    PointMatches3D2D pm;
+    LineMatches3D2D lm;
+    pm.reserve(point_matches.size());
+    for (const auto& [i, j] : point_matches) {
+      PointMatch3D2D m;
+      m.P_prev = s.previous.points[i].p_c;
+      m.uv_cur = cur.points[j].uv;
+      // Keypoints of coarser pyramid levels are localised less precisely.
+      m.weight = std::pow(s.options.points.scale_factor, -2.0 * cur.points[j].octave);
+      pm.push_back(m);
+    }
+    for (const auto& [i, j] : line_matches) {
+      const LineFeature& lp = s.previous.lines[i];
+      if (!lp.has_depth) continue;
+      LineMatch3D2D m;
+      m.P_prev = lp.P_c;
+      m.Q_prev = lp.Q_c;
+      m.l_cur = cur.lines[j].l;
+      m.weight = s.options.line_weight;
+      lm.push_back(m);
+    }
+    const MotionEstimate est = EstimateMotion(s.camera, pm, lm, prior, s.options.motion);
+    result.point_inliers = est.point_inliers;
+    result.line_inliers = est.line_inliers;
+    if (!est.success) {
+      result.warning = "motion estimation failed: " + est.failure;
+    } else if (est.point_inliers + est.line_inliers < s.options.min_inliers) {
+      std::ostringstream os;
+      os << "only " << est.point_inliers << " point and " << est.line_inliers
+         << " line inliers (min_inliers=" << s.options.min_inliers << ")";
+      result.warning = os.str();
+    } else {
+      const SE3 T_prev_cur = est.T_cur_prev.inverse();
+      if (!T_prev_cur.IsFinite() || T_prev_cur.translation().norm() > s.options.max_translation ||
+          T_prev_cur.RotationAngle() * 180.0 / M_PI > s.options.max_rotation_deg) {
+        result.warning = "implausible frame-to-frame motion rejected";
+      } else {
+        tracked = true;
+        result.T_prev_cur = T_prev_cur;
+        result.covariance_prev_cur = est.covariance_prev_cur;
+        s.T_w_c = s.T_w_c * T_prev_cur;
+        s.velocity_cur_prev = est.T_cur_prev;
+        s.velocity_valid = true;
+      }
+    }
+  }
+  result.stage_ms.emplace_back("motion", MsSince(t0));
+
+  // 5. State, keyframe decision and the new reference frame.
+  t0 = Clock::now();
+  const int usable = result.points_stereo + result.lines_stereo;
+  if (!s.initialized) {
+    if (usable >= s.options.min_inliers) {
+      s.initialized = true;
+      tracked = true;
+      s.selector.Reset();
+      // Registers this frame as the chain's start (the increment of a first frame is ignored).
+      result.keyframe_reason = s.selector.AddFrame(SE3(), Matrix6d::Identity(), usable);
+      result.is_keyframe = true;
+    } else {
+      std::ostringstream os;
+      os << "only " << usable << " stereo features; waiting to initialise";
+      result.warning = os.str();
+    }
+    s.state = s.initialized ? TrackerState::kTracking : TrackerState::kNotInitialized;
+  } else if (tracked) {
+    s.state = TrackerState::kTracking;
+    result.keyframe_reason = s.selector.AddFrame(result.T_prev_cur, result.covariance_prev_cur,
+                                                 result.point_inliers + result.line_inliers);
+    result.is_keyframe = result.keyframe_reason != KeyframeReason::kNone;
+  } else {
+    // Lost: restart from the last pose with this frame as the new reference. The trajectory
+    // gets a gap (no pose for this frame), never a jump; the caller is told why.
+    s.state = TrackerState::kLost;
+    s.velocity_valid = false;
+    s.selector.Reset();
+  }
+  if (usable > 0) {
+    s.previous = std::move(cur);
+    s.has_previous = true;
+  }
+  result.state = s.state;
+  result.pose_valid = tracked;
+  result.T_w_c = s.T_w_c;
+  result.stage_ms.emplace_back("keyframe", MsSince(t0));
+  return result;
+}
+
+}  // namespace pl_slam
