@@ -9,7 +9,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -45,6 +44,7 @@ constexpr char kUsage[] =
     "  --max-distance D    largest Hamming distance (default: matcher default)\n"
     "  --min-stereo-angle A  min_stereo_angle_deg (default: matcher default)\n"
     "  --no-merge          do not merge collinear pieces\n"
+    "  --verbose           print every scored stereo match (--gt)\n"
     "  --opencv-threads N  cv::setNumThreads (default 1: the tracker runs images in parallel)\n";
 
 double Ms(Clock::time_point t0) {
@@ -96,6 +96,7 @@ cv::Mat ReadPfm(const std::string& path) {
 struct Setup {
   pl_slam::LineDetectorOptions det;
   pl_slam::LineMatchingOptions match;
+  bool verbose = false;  // print every scored stereo match
 };
 
 // ---------------------------------------------------------------------------------------
@@ -132,7 +133,9 @@ void RunTiming(const Setup& setup, const std::string& folder, int frames) {
     if (gt.empty()) return false;
     auto it = std::lower_bound(gt.begin(), gt.end(), f.stamp_s(),
                                [](const pl_slam::StampedPose& p, double t) { return p.t < t; });
-    if (it == gt.end() || (it != gt.begin() && std::abs((it - 1)->t - f.stamp_s()) < std::abs(it->t - f.stamp_s()))) --it;
+    if (it == gt.end() ||
+        (it != gt.begin() && std::abs((it - 1)->t - f.stamp_s()) < std::abs(it->t - f.stamp_s())))
+      --it;
     if (std::abs(it->t - f.stamp_s()) > 0.01) return false;
     *T_w_c = it->T_w_c;
     return true;
@@ -142,7 +145,8 @@ void RunTiming(const Setup& setup, const std::string& folder, int frames) {
   int f2f_checked[2] = {0, 0}, f2f_consistent[2] = {0, 0};
   std::vector<double> n_guided;
   auto check = [&](const pl_slam::LineFeatures& p, const pl_slam::LineFeatures& c,
-                   const std::vector<std::pair<int, int>>& m, const pl_slam::SE3& T_cur_prev, int kind) {
+                   const std::vector<std::pair<int, int>>& m, const pl_slam::SE3& T_cur_prev,
+                   int kind) {
     for (const auto& [i, j] : m) {
       if (!p[i].has_depth) continue;
       const Eigen::Vector3d P = T_cur_prev * p[i].P_c, Q = T_cur_prev * p[i].Q_c;
@@ -180,12 +184,14 @@ void RunTiming(const Setup& setup, const std::string& folder, int frames) {
       w_pair.push_back(Ms(t0));
     }
     int ns = 0;
-    Time([&] { ns = pl_slam::MatchStereoLines(cam, &left, ld, right, rd, setup.match); }, &w_stereo, &c_stereo);
+    Time([&] { ns = pl_slam::MatchStereoLines(cam, &left, ld, right, rd, setup.match); }, &w_stereo,
+         &c_stereo);
     n_lines.push_back(static_cast<double>(left.size()));
     n_stereo.push_back(ns);
     if (!prev.empty()) {
       std::vector<std::pair<int, int>> m;
-      Time([&] { m = pl_slam::MatchLines(prev, prev_desc, left, ld, setup.match); }, &w_f2f, &c_f2f);
+      Time([&] { m = pl_slam::MatchLines(prev, prev_desc, left, ld, setup.match); }, &w_f2f,
+           &c_f2f);
       n_f2f.push_back(static_cast<double>(m.size()));
       if (has_gt && prev_has_gt) {
         pl_slam::LinePrediction pred;
@@ -202,8 +208,9 @@ void RunTiming(const Setup& setup, const std::string& folder, int frames) {
     T_w_prev = T_w_cur;
     prev_has_gt = has_gt;
   }
-  std::cout << "timing on " << source->Describe() << " (" << data.size() << " rectified stereo frames, "
-            << cam.width << "x" << cam.height << "), median / p95 in ms, wall | thread CPU:\n"
+  std::cout << "timing on " << source->Describe() << " (" << data.size()
+            << " rectified stereo frames, " << cam.width << "x" << cam.height
+            << "), median / p95 in ms, wall | thread CPU:\n"
             << "  detect+LBD left          " << Stats(w_left) << " | " << Stats(c_left) << "\n"
             << "  detect+LBD right         " << Stats(w_right) << " | " << Stats(c_right) << "\n"
             << "  detect+LBD both (2 thr.) " << Stats(w_pair) << "\n"
@@ -212,10 +219,12 @@ void RunTiming(const Setup& setup, const std::string& folder, int frames) {
             << "  lines per image " << Median(n_lines) << ", stereo matches " << Median(n_stereo)
             << ", f2f matches " << Median(n_f2f) << " (medians)\n";
   if (f2f_checked[0] > 0) {
-    std::printf("  f2f matches consistent with the true motion (3D endpoints reproject < 3 px): unguided %.1f%% "
-                "of %d; guided by the true motion: %.1f%% of %d (%.0f matches/frame)\n",
-                100.0 * f2f_consistent[0] / f2f_checked[0], f2f_checked[0],
-                100.0 * f2f_consistent[1] / std::max(1, f2f_checked[1]), f2f_checked[1], Median(n_guided));
+    std::printf(
+        "  f2f matches consistent with the true motion (3D endpoints reproject < 3 px): unguided "
+        "%.1f%% "
+        "of %d; guided by the true motion: %.1f%% of %d (%.0f matches/frame)\n",
+        100.0 * f2f_consistent[0] / f2f_checked[0], f2f_checked[0],
+        100.0 * f2f_consistent[1] / std::max(1, f2f_checked[1]), f2f_checked[1], Median(n_guided));
   }
 }
 
@@ -233,7 +242,7 @@ struct GtScore {
 };
 
 GtScore ScoreAgainstGt(const pl_slam::LineFeatures& left, const std::vector<int>& right_of_left,
-                       const pl_slam::LineFeatures& right, const cv::Mat& gt) {
+                       const pl_slam::LineFeatures& right, const cv::Mat& gt, bool verbose) {
   GtScore s;
   s.lines = static_cast<int>(left.size());
   for (size_t i = 0; i < left.size(); ++i) {
@@ -260,16 +269,19 @@ GtScore ScoreAgainstGt(const pl_slam::LineFeatures& left, const std::vector<int>
         best_any = std::min(best_any, std::abs(g - d));
       }
       if (best_fg > 0) {
-        fg.push_back(std::getenv("BENCH_LINES_SIGNED") ? d - best_fg : std::abs(best_fg - d));
+        fg.push_back(std::abs(best_fg - d));
         any.push_back(best_any);
       }
     }
     if (fg.size() < 3) continue;
     ++s.scored;
     const double e_fg = Median(fg), e_any = Median(any);
-    if (std::getenv("BENCH_LINES_DEBUG")) {
-      std::printf("    s=(%.1f,%.1f) e=(%.1f,%.1f) len %.0f ang %.0f d=(%.2f,%.2f) rows %zu err fg %.2f any %.2f\n", l.s.x(),
-                  l.s.y(), l.e.x(), l.e.y(), l.length, l.angle * 180 / M_PI, d_s, d_e, fg.size(), e_fg, e_any);
+    if (verbose) {
+      std::printf(
+          "    s=(%.1f,%.1f) e=(%.1f,%.1f) len %.0f ang %.0f d=(%.2f,%.2f) rows %zu err fg %.2f "
+          "any %.2f\n",
+          l.s.x(), l.s.y(), l.e.x(), l.e.y(), l.length, l.angle * 180 / M_PI, d_s, d_e, fg.size(),
+          e_fg, e_any);
     }
     s.fg_err.push_back(e_fg);
     s.fg_1px += e_fg <= 1.0;
@@ -280,8 +292,8 @@ GtScore ScoreAgainstGt(const pl_slam::LineFeatures& left, const std::vector<int>
   return s;
 }
 
-void RunGtPair(const Setup& setup, const std::string& name, const cv::Mat& l_img, const cv::Mat& r_img,
-               const cv::Mat& gt, double max_disparity) {
+void RunGtPair(const Setup& setup, const std::string& name, const cv::Mat& l_img,
+               const cv::Mat& r_img, const cv::Mat& gt, double max_disparity) {
   pl_slam::StereoCamera cam;  // disparities are scored, so any consistent model will do
   cam.fx = cam.fy = 700.0;
   cam.cx = l_img.cols / 2.0;
@@ -298,21 +310,24 @@ void RunGtPair(const Setup& setup, const std::string& name, const cv::Mat& l_img
   detector.Detect(r_img, &right, &rd);
   std::vector<int> r_of_l;
   pl_slam::MatchStereoLines(cam, &left, ld, right, rd, mo, &r_of_l);
-  const GtScore s = ScoreAgainstGt(left, r_of_l, right, gt);
+  const GtScore s = ScoreAgainstGt(left, r_of_l, right, gt, setup.verbose);
   auto pct = [&](int k) { return s.scored ? 100.0 * k / s.scored : 0.0; };
-  std::printf("  %-22s lines %3d  matched %3d  scored %3d  foreground-GT: <=1px %5.1f%%  <=2px %5.1f%%  "
-              "median err %.2f px | best-side GT: <=1px %5.1f%%  <=2px %5.1f%%\n",
-              name.c_str(), s.lines, s.matched, s.scored, pct(s.fg_1px), pct(s.fg_2px), Median(s.fg_err),
-              pct(s.any_1px), pct(s.any_2px));
+  std::printf(
+      "  %-22s lines %3d  matched %3d  scored %3d  foreground-GT: <=1px %5.1f%%  <=2px %5.1f%%  "
+      "median err %.2f px | best-side GT: <=1px %5.1f%%  <=2px %5.1f%%\n",
+      name.c_str(), s.lines, s.matched, s.scored, pct(s.fg_1px), pct(s.fg_2px), Median(s.fg_err),
+      pct(s.any_1px), pct(s.any_2px));
 }
 
 void RunGt(const Setup& setup, const fs::path& root) {
-  std::cout << "stereo line matches vs ground-truth disparity (median over the rows of each segment):\n";
+  std::cout
+      << "stereo line matches vs ground-truth disparity (median over the rows of each segment):\n";
   const fs::path kitti = root / "KITTI_2015" / "training";
   if (fs::exists(kitti / "image_2" / "000046_10.png")) {
     const cv::Mat l = ReadGray((kitti / "image_2" / "000046_10.png").string());
     const cv::Mat r = ReadGray((kitti / "image_3" / "000046_10.png").string());
-    cv::Mat raw = cv::imread((kitti / "disp_occ_0" / "000046_10.png").string(), cv::IMREAD_UNCHANGED);
+    cv::Mat raw =
+        cv::imread((kitti / "disp_occ_0" / "000046_10.png").string(), cv::IMREAD_UNCHANGED);
     cv::Mat gt;
     raw.convertTo(gt, CV_32F, 1.0 / 256.0);
     RunGtPair(setup, "KITTI 2015 000046_10", l, r, gt, 250.0);
@@ -321,14 +336,16 @@ void RunGt(const Setup& setup, const fs::path& root) {
   if (fs::exists(mb / "im0.png")) {
     const cv::Mat l = ReadGray((mb / "im0.png").string());
     const cv::Mat r = ReadGray((mb / "im1.png").string());
-    RunGtPair(setup, "Middlebury Motorcycle Q", l, r, ReadPfm((mb / "disp0GT.pfm").string()), 100.0);
+    RunGtPair(setup, "Middlebury Motorcycle Q", l, r, ReadPfm((mb / "disp0GT.pfm").string()),
+              100.0);
   }
 }
 
 // ---------------------------------------------------------------------------------------
 // Ground-truth 3D points along a left-image segment: depth of the nearest surface among the
 // pixel and its neighbours across the line (the edge belongs to the occluder).
-bool GtSegment3D(const pl_slam::StereoCamera& cam, const cv::Mat& depth, const pl_slam::LineFeature& f,
+bool GtSegment3D(const pl_slam::StereoCamera& cam, const cv::Mat& depth,
+                 const pl_slam::LineFeature& f,
                  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>>* pts) {
   pts->clear();
   const Eigen::Vector2d n(f.l(0), f.l(1));
@@ -379,7 +396,8 @@ void RunSim(const Setup& setup, const std::string& scene, int frames) {
   FrameData prev = process(0);
   for (int k = 1; k < n; ++k) {
     FrameData cur = process(k);
-    const pl_slam::SE3 T_cur_prev = seq.ground_truth()[k].T_w_c.inverse() * seq.ground_truth()[k - 1].T_w_c;
+    const pl_slam::SE3 T_cur_prev =
+        seq.ground_truth()[k].T_w_c.inverse() * seq.ground_truth()[k - 1].T_w_c;
     // Stereo disparity of the previous frame's lines vs. the rendered depth, compared at the
     // first and last GT sample (t = 0.1, 0.9; disparity is linear along the segment).
     for (const auto& f : prev.lines) {
@@ -431,7 +449,8 @@ void RunSim(const Setup& setup, const std::string& scene, int frames) {
         double da = std::fmod(std::abs(ang - c.angle), 2 * M_PI);
         if (da > M_PI) da = 2 * M_PI - da;
         if (da > 5.0 * M_PI / 180.0) continue;
-        const double ea = c.l.dot(Eigen::Vector3d(pa.x(), pa.y(), 1)), eb = c.l.dot(Eigen::Vector3d(pb.x(), pb.y(), 1));
+        const double ea = c.l.dot(Eigen::Vector3d(pa.x(), pa.y(), 1)),
+                     eb = c.l.dot(Eigen::Vector3d(pb.x(), pb.y(), 1));
         if (std::abs(ea) > 2.0 || std::abs(eb) > 2.0) continue;
         const Eigen::Vector2d u = (c.e - c.s) / c.length;
         const double t1 = u.dot(pa - c.s), t2 = u.dot(pb - c.s);
@@ -443,22 +462,27 @@ void RunSim(const Setup& setup, const std::string& scene, int frames) {
     prev = std::move(cur);
   }
   auto pct = [](int a, int b) { return b ? 100.0 * a / b : 0.0; };
-  std::printf("synthetic %s, first %d frames: lines/frame %.1f, stereo depth %.1f%% of lines, disparity within 0.5 px: %.1f%%\n",
-              scene.c_str(), n, static_cast<double>(lines_total) / (n - 1),
-              pct(stereo, lines_total), pct(stereo_ok, stereo));
-  std::printf("  detector repeatability %.1f%% (%d lines)\n", pct(repeat_num, repeat_den), repeat_den);
-  std::printf("  f2f unguided: %.1f matches/frame, %.1f%% correct; guided (true motion): %.1f matches/frame, "
-              "%.1f%% correct\n",
-              static_cast<double>(f2f[0]) / (n - 1), pct(f2f_ok[0], f2f[0]),
-              static_cast<double>(f2f[1]) / (n - 1), pct(f2f_ok[1], f2f[1]));
+  std::printf(
+      "synthetic %s, first %d frames: lines/frame %.1f, stereo depth %.1f%% of lines, disparity "
+      "within 0.5 px: %.1f%%\n",
+      scene.c_str(), n, static_cast<double>(lines_total) / (n - 1), pct(stereo, lines_total),
+      pct(stereo_ok, stereo));
+  std::printf("  detector repeatability %.1f%% (%d lines)\n", pct(repeat_num, repeat_den),
+              repeat_den);
+  std::printf(
+      "  f2f unguided: %.1f matches/frame, %.1f%% correct; guided (true motion): %.1f "
+      "matches/frame, "
+      "%.1f%% correct\n",
+      static_cast<double>(f2f[0]) / (n - 1), pct(f2f_ok[0], f2f[0]),
+      static_cast<double>(f2f[1]) / (n - 1), pct(f2f_ok[1], f2f[1]));
 }
 
 int Run(int argc, char** argv) {
-  const pl_slam::CommandLine cl(argc, argv,
-                                {"data", "gt", "sim", "frames", "detector", "max-lines", "min-length",
-                                 "stereo-ratio", "f2f-ratio", "max-distance", "min-stereo-angle",
-                                 "opencv-threads"},
-                                {"no-merge", "help"});
+  const pl_slam::CommandLine cl(
+      argc, argv,
+      {"data", "gt", "sim", "frames", "detector", "max-lines", "min-length", "stereo-ratio",
+       "f2f-ratio", "max-distance", "min-stereo-angle", "opencv-threads"},
+      {"no-merge", "help"});
   if (cl.Has("help")) {
     std::cout << kUsage;
     return 0;
@@ -478,17 +502,19 @@ int Run(int argc, char** argv) {
   setup.det.max_lines = cl.GetInt("max-lines", setup.det.max_lines);
   setup.det.min_length_ratio = cl.GetDouble("min-length", setup.det.min_length_ratio);
   setup.det.merge_collinear = !cl.Has("no-merge");
+  setup.verbose = cl.Has("verbose");
   setup.match.stereo_ratio = cl.GetDouble("stereo-ratio", setup.match.stereo_ratio);
   setup.match.f2f_ratio = cl.GetDouble("f2f-ratio", setup.match.f2f_ratio);
   setup.match.max_distance = cl.GetInt("max-distance", setup.match.max_distance);
-  setup.match.min_stereo_angle_deg = cl.GetDouble("min-stereo-angle", setup.match.min_stereo_angle_deg);
+  setup.match.min_stereo_angle_deg =
+      cl.GetDouble("min-stereo-angle", setup.match.min_stereo_angle_deg);
   for (const std::string& err : {setup.det.Validate(), setup.match.Validate()}) {
     if (!err.empty()) throw pl_slam::ConfigError(err);
   }
   std::cout << "detector " << det << ", max_lines " << setup.det.max_lines << ", min_length_ratio "
-            << setup.det.min_length_ratio << ", merge " << setup.det.merge_collinear << ", stereo_ratio "
-            << setup.match.stereo_ratio << ", f2f_ratio " << setup.match.f2f_ratio << ", max_distance "
-            << setup.match.max_distance << "\n";
+            << setup.det.min_length_ratio << ", merge " << setup.det.merge_collinear
+            << ", stereo_ratio " << setup.match.stereo_ratio << ", f2f_ratio "
+            << setup.match.f2f_ratio << ", max_distance " << setup.match.max_distance << "\n";
   if (cl.Has("data")) RunTiming(setup, cl.Get("data", ""), cl.GetInt("frames", 100));
   if (cl.Has("gt")) RunGt(setup, cl.Get("gt", ""));
   if (cl.Has("sim")) RunSim(setup, cl.Get("sim", ""), cl.GetInt("frames", 40));

@@ -7,12 +7,16 @@
 #include <cstring>
 #include <sstream>
 
+#include <Eigen/StdVector>
+
 #include "pl_slam/util/error.h"
 
 namespace pl_slam {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
+
+using Points2d = std::vector<Eigen::Vector2d, Eigen::aligned_allocator<Eigen::Vector2d>>;
 
 double Deg2Rad(double deg) { return deg * kPi / 180.0; }
 
@@ -150,7 +154,7 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
 
   // Disparities of the best candidate of each left line, kept for triangulation.
   std::vector<Best> left_best(nl), right_best(nr);
-  std::vector<Eigen::Vector2d> best_disp(nl);
+  Points2d best_disp(nl);
   for (int i = 0; i < nl; ++i) {
     const LineFeature& l = (*left)[i];
     if (!steep(l)) continue;
@@ -182,7 +186,8 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
   }
 
   int matched = 0;
-  for (const auto& [i, j] : MutualMatches(left_best, right_best, options.stereo_ratio, options.max_distance)) {
+  for (const auto& [i, j] :
+       MutualMatches(left_best, right_best, options.stereo_ratio, options.max_distance)) {
     LineFeature& l = (*left)[i];
     l.P_c = camera.BackProject(l.s.x(), l.s.y(), best_disp[i].x());
     l.Q_c = camera.BackProject(l.e.x(), l.e.y(), best_disp[i].y());
@@ -194,9 +199,9 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
 }
 
 std::vector<std::pair<int, int>> MatchLines(const LineFeatures& prev, const cv::Mat& prev_desc,
-                                                        const LineFeatures& cur, const cv::Mat& cur_desc,
-                                                        const LineMatchingOptions& options,
-                                                        const LinePrediction* prediction) {
+                                            const LineFeatures& cur, const cv::Mat& cur_desc,
+                                            const LineMatchingOptions& options,
+                                            const LinePrediction* prediction) {
   const std::string err = options.Validate();
   if (!err.empty()) throw ConfigError("line_matching." + err);
   CheckDescriptors("MatchLines prev", prev_desc, prev.size());
@@ -208,7 +213,7 @@ std::vector<std::pair<int, int>> MatchLines(const LineFeatures& prev, const cv::
 
   // Predicted image segments of previous lines with depth (both endpoints in front).
   std::vector<char> guided(np, 0);
-  std::vector<Eigen::Vector2d> pred_s(np), pred_e(np);
+  Points2d pred_s(np), pred_e(np);
   std::vector<double> pred_angle(np, 0.0), pred_length(np, 0.0);
   if (prediction) {
     constexpr double kMinDepth = 1e-3;  // metres; closer is behind or on the camera plane
@@ -244,7 +249,8 @@ std::vector<std::pair<int, int>> MatchLines(const LineFeatures& prev, const cv::
         const Eigen::Vector3d& l = c.l;
         const double ds = l.x() * pred_s[i].x() + l.y() * pred_s[i].y() + l.z();
         const double de = l.x() * pred_e[i].x() + l.y() * pred_e[i].y() + l.z();
-        if (std::abs(ds) > options.f2f_max_line_distance || std::abs(de) > options.f2f_max_line_distance)
+        if (std::abs(ds) > options.f2f_max_line_distance ||
+            std::abs(de) > options.f2f_max_line_distance)
           continue;
         // Overlap along the current segment: occlusion and fragmentation may shorten either
         // segment, but a predicted segment far beyond the observed one is another line.

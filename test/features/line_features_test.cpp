@@ -25,7 +25,8 @@ class Canvas {
     std::vector<cv::Point> pts;
     for (const cv::Point2d& c : corners) {
       // Low-res (u, v) -> high-res pixel coordinates, 4 fractional bits for fillConvexPoly.
-      pts.emplace_back(cvRound(((c.x + 0.5) * kSuper - 0.5) * 16), cvRound(((c.y + 0.5) * kSuper - 0.5) * 16));
+      pts.emplace_back(cvRound(((c.x + 0.5) * kSuper - 0.5) * 16),
+                       cvRound(((c.y + 0.5) * kSuper - 0.5) * 16));
     }
     cv::fillConvexPoly(hi_, pts, cv::Scalar(value), cv::LINE_8, 4);
   }
@@ -49,7 +50,8 @@ double DistToLine(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eige
 
 // The detected line matching the drawn edge a -> b (same direction within 5 deg, both
 // endpoints near its line), or nullptr.
-const LineFeature* FindEdge(const LineFeatures& lines, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+const LineFeature* FindEdge(const LineFeatures& lines, const Eigen::Vector2d& a,
+                            const Eigen::Vector2d& b) {
   const double angle = std::atan2(b.y() - a.y(), b.x() - a.x());
   for (const LineFeature& f : lines) {
     double d = std::abs(f.angle - angle);
@@ -63,7 +65,8 @@ const LineFeature* FindEdge(const LineFeatures& lines, const Eigen::Vector2d& a,
 TEST(LineDetector, FindsDrawnEdgesWithSubPixelAccuracy) {
   Canvas canvas(752, 480, 60);
   // A bright axis-aligned rectangle at fractional coordinates and a rotated dark square.
-  const std::vector<cv::Point2d> rect = {{100.3, 80.6}, {300.7, 80.6}, {300.7, 260.2}, {100.3, 260.2}};
+  const std::vector<cv::Point2d> rect = {
+      {100.3, 80.6}, {300.7, 80.6}, {300.7, 260.2}, {100.3, 260.2}};
   canvas.FillPolygon(rect, 200);
   const std::vector<cv::Point2d> square = [] {
     std::vector<cv::Point2d> corners;
@@ -95,7 +98,8 @@ TEST(LineDetector, FindsDrawnEdgesWithSubPixelAccuracy) {
       // inside-dark, so its edges are reversed.
       const bool reversed = poly == &square;
       const LineFeature* f = reversed ? FindEdge(lines, b, a) : FindEdge(lines, a, b);
-      ASSERT_NE(f, nullptr) << "edge " << k << " of " << (reversed ? "square" : "rectangle") << " not found";
+      ASSERT_NE(f, nullptr) << "edge " << k << " of " << (reversed ? "square" : "rectangle")
+                            << " not found";
       // Sub-pixel: on the drawn line within 0.2 px; endpoints within 2 px of the corners.
       EXPECT_LT(DistToLine(f->s, a, b), 0.2) << "edge " << k;
       EXPECT_LT(DistToLine(f->e, a, b), 0.2) << "edge " << k;
@@ -199,12 +203,14 @@ TEST(LineDetector, LbdIsBitCompatibleWithOpenCv) {
     kl.response = static_cast<float>(f.length / std::max(img.cols, img.rows));
     kl.size = (kl.endPointX - kl.startPointX) * (kl.endPointY - kl.startPointY);
     kl.pt = cv::Point2f((kl.startPointX + kl.endPointX) / 2, (kl.startPointY + kl.endPointY) / 2);
-    cv::LineIterator it(img, cv::Point2f(kl.startPointX, kl.startPointY), cv::Point2f(kl.endPointX, kl.endPointY));
+    cv::LineIterator it(img, cv::Point2f(kl.startPointX, kl.startPointY),
+                        cv::Point2f(kl.endPointX, kl.endPointY));
     kl.numOfPixels = it.count;
     keylines.push_back(kl);
   }
   cv::Mat reference;
-  cv::line_descriptor::BinaryDescriptor::createBinaryDescriptor()->compute(img, keylines, reference);
+  cv::line_descriptor::BinaryDescriptor::createBinaryDescriptor()->compute(img, keylines,
+                                                                           reference);
   ASSERT_EQ(reference.rows, desc.rows);
   int identical = 0, differing_bits = 0;
   for (int i = 0; i < desc.rows; ++i) {
@@ -301,7 +307,7 @@ TEST(MakeLineFeature, NormalisesTheLine) {
   const LineFeature f = MakeLineFeature({10, 20}, {13, 24});
   EXPECT_NEAR(f.length, 5.0, 1e-12);
   EXPECT_NEAR(f.l.head<2>().norm(), 1.0, 1e-12);
-  EXPECT_NEAR(f.l.dot(Eigen::Vector3d(16, 28, 1)), 0.0, 1e-12);       // on the line
+  EXPECT_NEAR(f.l.dot(Eigen::Vector3d(16, 28, 1)), 0.0, 1e-12);           // on the line
   EXPECT_NEAR(std::abs(f.l.dot(Eigen::Vector3d(6, 23, 1))), 5.0, 1e-12);  // 5 px to the side
   EXPECT_NEAR(f.angle, std::atan2(4.0, 3.0), 1e-12);
 }

@@ -37,14 +37,16 @@ struct Quad {
 
 // Renders quads (given far to near) into the left or right image with exact area coverage:
 // drawn at 8x resolution and box-averaged, plus mild noise.
-cv::Mat RenderQuads(const StereoCamera& cam, const std::vector<Quad>& quads, bool right, uint64_t seed) {
+cv::Mat RenderQuads(const StereoCamera& cam, const std::vector<Quad>& quads, bool right,
+                    uint64_t seed) {
   constexpr int kSuper = 8;
   cv::Mat hi(cam.height * kSuper, cam.width * kSuper, CV_8UC1, cv::Scalar(100));
   for (const Quad& q : quads) {
     std::vector<cv::Point> pts;
     for (const Eigen::Vector3d& p : q.corners) {
       const Eigen::Vector2d uv = right ? cam.ProjectRight(p) : cam.Project(p);
-      pts.emplace_back(cvRound(((uv.x() + 0.5) * kSuper - 0.5) * 16), cvRound(((uv.y() + 0.5) * kSuper - 0.5) * 16));
+      pts.emplace_back(cvRound(((uv.x() + 0.5) * kSuper - 0.5) * 16),
+                       cvRound(((uv.y() + 0.5) * kSuper - 0.5) * 16));
     }
     cv::fillConvexPoly(hi, pts, cv::Scalar(q.value), cv::LINE_8, 4);
   }
@@ -68,9 +70,10 @@ Quad Rect(double x0, double x1, double y0, double y1, double z, double value) {
 // A scene of rectangles at 2.5-6 m, one slanted in depth, one rotated in its plane.
 std::vector<Quad> TestScene() {
   std::vector<Quad> quads;
-  quads.push_back(Rect(-1.6, -0.7, -0.9, 0.6, 6.0, 45));   // dark, far
-  quads.push_back(Rect(0.5, 1.5, -1.0, 0.2, 5.0, 170));    // bright, far
-  quads.push_back({{{0.2, 0.3, 2.6}, {0.8, 0.3, 3.6}, {0.8, 0.9, 3.6}, {0.2, 0.9, 2.6}}, 220});  // slanted
+  quads.push_back(Rect(-1.6, -0.7, -0.9, 0.6, 6.0, 45));  // dark, far
+  quads.push_back(Rect(0.5, 1.5, -1.0, 0.2, 5.0, 170));   // bright, far
+  quads.push_back(
+      {{{0.2, 0.3, 2.6}, {0.8, 0.3, 3.6}, {0.8, 0.9, 3.6}, {0.2, 0.9, 2.6}}, 220});  // slanted
   Quad rotated;
   for (int k = 0; k < 4; ++k) {
     const double a = 30.0 * kPi / 180.0 + k * kPi / 2;
@@ -115,7 +118,8 @@ StereoResult DetectAndMatch(const StereoCamera& cam, const cv::Mat& l_img, const
 TEST(MatchStereoLines, TriangulatesDrawnRectanglesAccurately) {
   const StereoCamera cam = TestCamera();
   const std::vector<Quad> quads = TestScene();
-  const StereoResult r = DetectAndMatch(cam, RenderQuads(cam, quads, false, 1), RenderQuads(cam, quads, true, 2));
+  const StereoResult r =
+      DetectAndMatch(cam, RenderQuads(cam, quads, false, 1), RenderQuads(cam, quads, true, 2));
   const double min_sin = std::sin(LineMatchingOptions().min_stereo_angle_deg * kPi / 180.0);
   int steep = 0, with_depth = 0, accurate = 0;
   for (const LineFeature& f : r.left) {
@@ -127,10 +131,11 @@ TEST(MatchStereoLines, TriangulatesDrawnRectanglesAccurately) {
     // Both endpoints on a true 3D edge: within 2% of their depth (0.2 px of disparity at
     // 2.5 m is 0.5%, at 6 m 1.2%).
     const double tol_p = 0.02 * f.P_c.z(), tol_q = 0.02 * f.Q_c.z();
-    const bool ok = DistanceToNearestEdge(quads, f.P_c) < tol_p && DistanceToNearestEdge(quads, f.Q_c) < tol_q;
+    const bool ok =
+        DistanceToNearestEdge(quads, f.P_c) < tol_p && DistanceToNearestEdge(quads, f.Q_c) < tol_q;
     accurate += ok;
-    EXPECT_TRUE(ok) << "s=" << f.s.transpose() << " e=" << f.e.transpose() << " P=" << f.P_c.transpose()
-                    << " Q=" << f.Q_c.transpose();
+    EXPECT_TRUE(ok) << "s=" << f.s.transpose() << " e=" << f.e.transpose()
+                    << " P=" << f.P_c.transpose() << " Q=" << f.Q_c.transpose();
     // P_c back-projects to s, Q_c to e.
     EXPECT_LT((cam.Project(f.P_c) - f.s).norm(), 1e-6);
     EXPECT_LT((cam.Project(f.Q_c) - f.e).norm(), 1e-6);
@@ -146,11 +151,14 @@ TEST(MatchStereoLines, NearHorizontalSegmentsStay2D) {
   const StereoCamera cam = TestCamera();
   for (double deg : {0.0, 5.0, 10.0, 20.0, 35.0, 90.0}) {
     const double a = deg * kPi / 180.0;
-    const Eigen::Vector3d c(0.0, 0.0, 3.0), d(std::cos(a), std::sin(a), 0.0), n(-std::sin(a), std::cos(a), 0.0);
+    const Eigen::Vector3d c(0.0, 0.0, 3.0), d(std::cos(a), std::sin(a), 0.0),
+        n(-std::sin(a), std::cos(a), 0.0);
     // A wide dark band whose long sides run along d.
-    const std::vector<Quad> quads = {
-        {{c - 1.2 * d - 0.15 * n, c + 1.2 * d - 0.15 * n, c + 1.2 * d + 0.15 * n, c - 1.2 * d + 0.15 * n}, 30}};
-    const StereoResult r = DetectAndMatch(cam, RenderQuads(cam, quads, false, 3), RenderQuads(cam, quads, true, 4));
+    const std::vector<Quad> quads = {{{c - 1.2 * d - 0.15 * n, c + 1.2 * d - 0.15 * n,
+                                       c + 1.2 * d + 0.15 * n, c - 1.2 * d + 0.15 * n},
+                                      30}};
+    const StereoResult r =
+        DetectAndMatch(cam, RenderQuads(cam, quads, false, 3), RenderQuads(cam, quads, true, 4));
     int long_lines = 0, long_with_depth = 0;
     for (const LineFeature& f : r.left) {
       if (f.length < 200) continue;
@@ -198,7 +206,8 @@ TEST(MatchStereoLines, RenderedSceneDisparityMatchesTruth) {
         break;
       }
       // Disparity is linear along the image of a 3D segment.
-      const double d = (1 - t) * cam.DisparityFromDepth(f.P_c.z()) + t * cam.DisparityFromDepth(f.Q_c.z());
+      const double d =
+          (1 - t) * cam.DisparityFromDepth(f.P_c.z()) + t * cam.DisparityFromDepth(f.Q_c.z());
       ok = ok && std::abs(d - cam.DisparityFromDepth(z_true)) < 0.5;
     }
     if (!known) continue;
@@ -262,7 +271,8 @@ TEST(MatchLines, UnrelatedImagesGiveFewMatches) {
   const auto m = MatchLines(la, da, lb, db, LineMatchingOptions());
   const size_t n = std::min(la.size(), lb.size());
   ASSERT_GT(n, 20u);
-  EXPECT_LE(m.size(), n / 10) << m.size() << " matches between unrelated images of " << n << " lines";
+  EXPECT_LE(m.size(), n / 10) << m.size() << " matches between unrelated images of " << n
+                              << " lines";
 }
 
 TEST(MatchLines, MotionPredictionGatesCandidates) {
@@ -285,7 +295,8 @@ TEST(MatchLines, MotionPredictionGatesCandidates) {
       const LineFeature& p = prev.left[i];
       if (!p.has_depth) continue;
       ++*with_depth;
-      const Eigen::Vector2d a = cam.Project(T_cur_prev * p.P_c), b = cam.Project(T_cur_prev * p.Q_c);
+      const Eigen::Vector2d a = cam.Project(T_cur_prev * p.P_c),
+                            b = cam.Project(T_cur_prev * p.Q_c);
       ok += std::abs(cur[j].l.dot(Eigen::Vector3d(a.x(), a.y(), 1))) < 3.0 &&
             std::abs(cur[j].l.dot(Eigen::Vector3d(b.x(), b.y(), 1))) < 3.0;
     }
@@ -304,7 +315,8 @@ TEST(MatchLines, MotionPredictionGatesCandidates) {
   // A wrong prediction (the camera turned 8 degrees the other way) leaves few candidates
   // for the lines with depth: the gate works.
   LinePrediction wrong = pred;
-  wrong.T_cur_prev = SE3(ExpSO3(Eigen::Vector3d(0, 8.0 * kPi / 180.0, 0)), Eigen::Vector3d::Zero()) * T_cur_prev;
+  wrong.T_cur_prev =
+      SE3(ExpSO3(Eigen::Vector3d(0, 8.0 * kPi / 180.0, 0)), Eigen::Vector3d::Zero()) * T_cur_prev;
   const auto misled = MatchLines(prev.left, prev.left_desc, cur, cur_desc, mo, &wrong);
   int misled_depth = 0;
   count_correct(misled, &misled_depth);
@@ -318,14 +330,18 @@ TEST(LineMatching, EmptyInputsAndBadDescriptors) {
   left[0].P_c = Eigen::Vector3d(1, 2, 3);
   const cv::Mat one(1, 32, CV_8UC1, cv::Scalar(7));
   std::vector<int> r_of_l;
-  EXPECT_EQ(MatchStereoLines(cam, &left, one, LineFeatures(), cv::Mat(), LineMatchingOptions(), &r_of_l), 0);
+  EXPECT_EQ(
+      MatchStereoLines(cam, &left, one, LineFeatures(), cv::Mat(), LineMatchingOptions(), &r_of_l),
+      0);
   EXPECT_FALSE(left[0].has_depth) << "stale depth must be cleared";
   EXPECT_EQ(left[0].P_c, Eigen::Vector3d::Zero());
   EXPECT_EQ(r_of_l, std::vector<int>{-1});
   EXPECT_TRUE(MatchLines(LineFeatures(), cv::Mat(), left, one, LineMatchingOptions()).empty());
-  EXPECT_THROW(MatchLines(left, cv::Mat(2, 32, CV_8UC1), left, one, LineMatchingOptions()), InputError);
-  EXPECT_THROW(MatchStereoLines(cam, &left, cv::Mat(1, 16, CV_8UC1), left, one, LineMatchingOptions()),
+  EXPECT_THROW(MatchLines(left, cv::Mat(2, 32, CV_8UC1), left, one, LineMatchingOptions()),
                InputError);
+  EXPECT_THROW(
+      MatchStereoLines(cam, &left, cv::Mat(1, 16, CV_8UC1), left, one, LineMatchingOptions()),
+      InputError);
 }
 
 TEST(LineMatching, OptionsValidationNamesTheKey) {
@@ -396,7 +412,9 @@ TEST(LineMatching, DescriptorDistanceCountsBits) {
 // ---------------------------------------------------------------------------------------
 // Real stereo pairs with ground-truth disparity (../shared/datasets, beside the project).
 
-fs::path GtRoot() { return fs::path(PL_SLAM_SOURCE_DIR) / ".." / "shared" / "datasets" / "stereo_disparity_gt"; }
+fs::path GtRoot() {
+  return fs::path(PL_SLAM_SOURCE_DIR) / ".." / "shared" / "datasets" / "stereo_disparity_gt";
+}
 
 cv::Mat ReadPfm(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -436,7 +454,8 @@ int ScoreStereoAgainstGt(const cv::Mat& left_img, const cv::Mat& right_img, cons
     const LineFeature& l = left[i];
     const LineFeature& r = right[r_of_l[i]];
     auto disparity_at_row = [&](double v) { return -(r.l(1) * v + r.l(2)) / r.l(0); };
-    const double d_s = l.s.x() - disparity_at_row(l.s.y()), d_e = l.e.x() - disparity_at_row(l.e.y());
+    const double d_s = l.s.x() - disparity_at_row(l.s.y()),
+                 d_e = l.e.x() - disparity_at_row(l.e.y());
     std::vector<double> err;
     const int v0 = static_cast<int>(std::ceil(std::min(l.s.y(), l.e.y())));
     const int v1 = static_cast<int>(std::floor(std::max(l.s.y(), l.e.y())));
@@ -473,8 +492,8 @@ TEST(MatchStereoLines, MiddleburyDisparityMatchesGroundTruth) {
   ASSERT_FALSE(l.empty() || r.empty() || gt.empty());
   double w1 = 0, w2 = 0;
   const int n = ScoreStereoAgainstGt(l, r, gt, 100.0, &w1, &w2);
-  std::cout << "Middlebury Motorcycle Q: " << n << " segments, " << 100 * w1 << "% within 1 px, " << 100 * w2
-            << "% within 2 px\n";
+  std::cout << "Middlebury Motorcycle Q: " << n << " segments, " << 100 * w1 << "% within 1 px, "
+            << 100 * w2 << "% within 2 px\n";
   EXPECT_GE(n, 40);
   EXPECT_GE(w1, 0.85);
   EXPECT_GE(w2, 0.90);
@@ -482,17 +501,19 @@ TEST(MatchStereoLines, MiddleburyDisparityMatchesGroundTruth) {
 
 TEST(MatchStereoLines, KittiDisparityMatchesGroundTruth) {
   const fs::path dir = GtRoot() / "KITTI_2015" / "training";
-  if (!fs::exists(dir / "disp_occ_0" / "000046_10.png")) GTEST_SKIP() << "no " << dir << " (shared datasets absent)";
+  if (!fs::exists(dir / "disp_occ_0" / "000046_10.png"))
+    GTEST_SKIP() << "no " << dir << " (shared datasets absent)";
   const cv::Mat l = cv::imread((dir / "image_2" / "000046_10.png").string(), cv::IMREAD_GRAYSCALE);
   const cv::Mat r = cv::imread((dir / "image_3" / "000046_10.png").string(), cv::IMREAD_GRAYSCALE);
-  const cv::Mat raw = cv::imread((dir / "disp_occ_0" / "000046_10.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat raw =
+      cv::imread((dir / "disp_occ_0" / "000046_10.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_FALSE(l.empty() || r.empty() || raw.empty());
   cv::Mat gt;
   raw.convertTo(gt, CV_32F, 1.0 / 256.0);
   double w1 = 0, w2 = 0;
   const int n = ScoreStereoAgainstGt(l, r, gt, 250.0, &w1, &w2);
-  std::cout << "KITTI 2015 000046_10: " << n << " segments, " << 100 * w1 << "% within 1 px, " << 100 * w2
-            << "% within 2 px\n";
+  std::cout << "KITTI 2015 000046_10: " << n << " segments, " << 100 * w1 << "% within 1 px, "
+            << 100 * w2 << "% within 2 px\n";
   // The LiDAR GT covers few of the segments (no sky, sparse rows; 18 scored at the time of
   // writing, 50 % within 1 px, 72 % within 2 px), and even dense SGBM sits 0.57 px (median)
   // below it on this pair: loose bounds that still catch a broken matcher.

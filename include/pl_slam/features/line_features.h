@@ -1,8 +1,9 @@
 // Line segments with LBD binary descriptors for one image (paper Section IV-B). The default
-// detector chains Canny edges and splits the chains into straight runs (the FastLineDetector
-// idea, re-implemented without its per-pixel allocations and with sub-pixel edge positions);
-// OpenCV's LSD stays selectable for comparison. Descriptors are computed only for the lines
-// that are kept, on the same gradient images the detector used.
+// detector chains Canny-style edges (non-maximum suppression, hysteresis per chain) and
+// splits the chains into straight runs: the FastLineDetector idea, re-implemented with SIMD,
+// without per-pixel allocations and with sub-pixel edge positions. OpenCV's LSD stays
+// selectable for comparison. Descriptors are computed only for the lines that are kept, on
+// the gradient images the detector already computed.
 #pragma once
 
 #include <memory>
@@ -16,24 +17,24 @@ namespace pl_slam {
 
 /// Which segment detector LineDetector runs.
 enum class LineDetectorKind {
-  kEdgeChain,  ///< Canny edges chained and split into straight runs (fast, the default)
-  kLsd,        ///< OpenCV LSD (cv::createLineSegmentDetector, no refinement); ~5x slower
+  kEdgeChain,  ///< edges chained and split into straight runs (fast, the default)
+  kLsd,        ///< OpenCV LSD (cv::createLineSegmentDetector, no refinement); ~6x slower
 };
 
 /// Options of the line detector. Lengths are relative to min(width, height) so one setting
 /// fits EuRoC (752x480) and KITTI (1241x376) alike.
 struct LineDetectorOptions {
   LineDetectorKind detector = LineDetectorKind::kEdgeChain;  ///< segment detector
-  double min_length_ratio = 0.05;  ///< shortest kept segment, fraction of min(width, height)
-  int max_lines = 120;             ///< keep at most this many, the longest first (0 = no cap)
-  double canny_low = 40.0;         ///< edge chain: Canny hysteresis low threshold (|dx|+|dy|)
-  double canny_high = 80.0;        ///< edge chain: Canny high threshold (|dx|+|dy| of 3x3 Sobel)
-  double max_fit_distance = 1.0;   ///< edge chain: pixel-to-line distance that ends a straight run
-  bool merge_collinear = true;     ///< edge chain: join collinear pieces split at junctions
-  double merge_max_gap = 8.0;      ///< merge: largest gap between pieces along the line, pixels
+  double min_length_ratio = 0.05;   ///< shortest kept segment, fraction of min(width, height)
+  int max_lines = 120;              ///< keep at most this many, the longest first (0 = no cap)
+  double canny_low = 40.0;          ///< edge chain: Canny low threshold on |dx|+|dy| (Sobel)
+  double canny_high = 80.0;         ///< edge chain: Canny high threshold, one pixel per chain
+  double max_fit_distance = 1.0;    ///< edge chain: pixel-to-line distance that ends a straight run
+  bool merge_collinear = true;      ///< join collinear pieces split at junctions (both detectors)
+  double merge_max_gap = 8.0;       ///< merge: largest gap between pieces along the line, pixels
   double merge_max_distance = 1.5;  ///< merge: largest endpoint-to-line distance, pixels
   double merge_max_angle_deg = 2.0;  ///< merge: largest direction difference, degrees
-  double lsd_scale = 0.8;           ///< LSD: image scale LSD works at (its own default)
+  double lsd_scale = 0.8;            ///< LSD: image scale LSD works at (its own default)
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;

@@ -4,6 +4,7 @@
 // survive the geometric filters (orientation, length, epipolar overlap, disparities).
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
@@ -19,20 +20,20 @@ namespace pl_slam {
 /// Options of line matching. Angles compare full-circle directions: detectors orient every
 /// segment by its contrast polarity, so edges of opposite polarity never match.
 struct LineMatchingOptions {
-  int max_distance = 90;                ///< largest accepted Hamming distance (of 256 bits)
-  double stereo_ratio = 0.8;            ///< stereo: best < ratio * second best candidate
-  double stereo_max_angle_deg = 10.0;   ///< stereo: largest left-right direction difference
+  int max_distance = 90;                 ///< largest accepted Hamming distance (of 256 bits)
+  double stereo_ratio = 0.8;             ///< stereo: best < ratio * second best candidate
+  double stereo_max_angle_deg = 10.0;    ///< stereo: largest left-right direction difference
   double stereo_min_length_ratio = 0.5;  ///< stereo: shorter / longer segment length
-  double stereo_min_row_overlap = 0.5;  ///< stereo: shared rows / rows of the longer segment
-  double min_disparity = 1.0;           ///< stereo: both endpoint disparities at least this (px)
-  double max_disparity = 200.0;         ///< stereo: both endpoint disparities at most this (px)
-  double max_disparity_gradient = 0.5;  ///< stereo: |d_s - d_e| / left length (3D slant bound)
-  double min_stereo_angle_deg = 15.0;   ///< stereo: flatter segments (vs. rows) get no depth
-  double f2f_ratio = 0.8;               ///< frame to frame: best < ratio * second best
-  double f2f_max_angle_deg = 15.0;      ///< frame to frame: largest direction difference
-  double f2f_min_length_ratio = 0.4;    ///< frame to frame: shorter / longer segment length
-  double f2f_max_line_distance = 10.0;  ///< with prediction: predicted endpoints to line (px)
-  double f2f_max_gap = 20.0;   ///< with prediction: gap between the segments (px)
+  double stereo_min_row_overlap = 0.5;   ///< stereo: shared rows / rows of the longer segment
+  double min_disparity = 1.0;            ///< stereo: both endpoint disparities at least this (px)
+  double max_disparity = 200.0;          ///< stereo: both endpoint disparities at most this (px)
+  double max_disparity_gradient = 0.5;   ///< stereo: |d_s - d_e| / left length (3D slant bound)
+  double min_stereo_angle_deg = 15.0;    ///< stereo: flatter segments (vs. rows) get no depth
+  double f2f_ratio = 0.8;                ///< frame to frame: best < ratio * second best
+  double f2f_max_angle_deg = 15.0;       ///< frame to frame: largest direction difference
+  double f2f_min_length_ratio = 0.4;     ///< frame to frame: shorter / longer segment length
+  double f2f_max_line_distance = 10.0;   ///< with prediction: predicted endpoints to line (px)
+  double f2f_max_gap = 20.0;             ///< with prediction: gap between the segments (px)
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;
@@ -57,7 +58,8 @@ int LineDescriptorDistance(const uint8_t* a, const uint8_t* b);
 /// they keep has_depth = false and serve as 2D observations only. Every other left line
 /// without a valid match is reset to has_depth = false too. Returns the number of left lines
 /// with depth. With `right_of_left`, it receives the matched right index per left line (-1
-/// when none). Throws ConfigError on invalid options.
+/// when none). Throws ConfigError on invalid options, InputError on descriptors that do not
+/// fit the lines.
 int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::Mat& left_desc,
                      const LineFeatures& right, const cv::Mat& right_desc,
                      const LineMatchingOptions& options, std::vector<int>* right_of_left = nullptr);
@@ -73,8 +75,8 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
 /// as without prediction. Throws ConfigError on invalid options, InputError on descriptors
 /// that do not fit the lines.
 std::vector<std::pair<int, int>> MatchLines(const LineFeatures& prev, const cv::Mat& prev_desc,
-                                                        const LineFeatures& cur, const cv::Mat& cur_desc,
-                                                        const LineMatchingOptions& options,
-                                                        const LinePrediction* prediction = nullptr);
+                                            const LineFeatures& cur, const cv::Mat& cur_desc,
+                                            const LineMatchingOptions& options,
+                                            const LinePrediction* prediction = nullptr);
 
 }  // namespace pl_slam
