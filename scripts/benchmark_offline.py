@@ -43,10 +43,20 @@ def percentile(values, q):
     return v[min(len(v) - 1, int(q * (len(v) - 1) + 0.5))]
 
 
-def bench(name, source, out, repeat, mode, overrides):
+def num(v):
+    """JSON null (a metric that does not apply) as NaN."""
+    return float("nan") if v is None else float(v)
+
+
+def bench(name, source, out, repeat, mode, overrides, report_only=False):
     runs = []
     for k in range(repeat):
         d = os.path.join(out, mode, name, "run%d" % k)
+        if report_only:
+            if not os.path.isfile(os.path.join(d, "timing.csv")):
+                raise RuntimeError("%s: no earlier run to report" % d)
+            runs.append(d)
+            continue
         os.makedirs(d, exist_ok=True)
         cmd = [os.path.join(BIN, "pl_slam_offline"), source, "--out", d, "--quiet", "--mode", mode]
         if overrides:
@@ -75,13 +85,13 @@ def bench(name, source, out, repeat, mode, overrides):
         "name": name,
         "mode": mode,
         "frames": ev["coverage"]["frames"],
-        "coverage": ev["coverage"]["ratio"],
-        "length": ev["gt_path_length_m"],
-        "ate": ev["ate"]["translation_m"]["rmse"],
-        "rpe1_t": rpe1["translation_m"]["rmse"] if rpe1 else float("nan"),
-        "rpe1_r": rpe1["rotation_deg"]["rmse"] if rpe1 else float("nan"),
-        "drift": drift[-1]["translation_pct"] if drift else float("nan"),
-        "drift_len": drift[-1]["length_m"] if drift else float("nan"),
+        "coverage": num(ev["coverage"]["ratio"]),
+        "length": num(ev["gt_path_length_m"]),
+        "ate": num(ev["ate"]["translation_m"]["rmse"]),
+        "rpe1_t": num(rpe1["translation_m"]["rmse"]) if rpe1 else float("nan"),
+        "rpe1_r": num(rpe1["rotation_deg"]["rmse"]) if rpe1 else float("nan"),
+        "drift": num(drift[-1]["translation_pct"]) if drift else float("nan"),
+        "drift_len": num(drift[-1]["length_m"]) if drift else float("nan"),
         "median_ms": statistics.median(totals),
         "p95_ms": percentile(totals, 0.95),
         "spread_ms": percentile(totals, 0.75) - percentile(totals, 0.25),
@@ -96,6 +106,7 @@ def main():
     ap.add_argument("--repeat", type=int, default=1, help="runs per sequence for timing")
     ap.add_argument("--modes", default="points,points_lines", help="tracker feature modes to compare")
     ap.add_argument("--set", default="", help="option overrides passed to pl_slam_offline --set")
+    ap.add_argument("--report-only", action="store_true", help="tabulate the runs already in --out")
     args = ap.parse_args()
     only = set(filter(None, args.only.split(",")))
     os.makedirs(args.out, exist_ok=True)
@@ -105,7 +116,7 @@ def main():
         if only and scene not in only:
             continue
         data = os.path.join(args.out, "data", scene)
-        if not os.path.isdir(os.path.join(data, "mav0")):
+        if not args.report_only and not os.path.isdir(os.path.join(data, "mav0")):
             print("rendering synthetic %s ..." % scene, flush=True)
             run([os.path.join(BIN, "pl_slam_generate"), "--scene", scene, "--euroc", data],
                 os.path.join(args.out, "generate_%s.log" % scene))
@@ -124,14 +135,16 @@ def main():
         for mode in args.modes.split(","):
             print("running %s (%s) ..." % (name, mode), flush=True)
             try:
-                results.append(bench(name, path, args.out, args.repeat, mode, args.set))
+                results.append(bench(name, path, args.out, args.repeat, mode, args.set, args.report_only))
             except RuntimeError as e:
                 print("  FAILED: %s" % str(e).splitlines()[0])
 
+    with open(os.path.join(args.out, "results.json"), "w") as f:
+        json.dump(results, f, indent=1)
     print()
     print("machine: %s, %d cores, %s" % (platform.node(), os.cpu_count(), platform.processor() or platform.machine()))
     print()
-    print("| sequence | mode | frames | coverage | path m | ATE RMSE m (SE3) | RPE/frame m | RPE/frame deg | drift %% (longest seg) | median ms | p95 ms | IQR ms |")
+    print("| sequence | mode | frames | coverage | path m | ATE RMSE m (SE3) | RPE/frame m | RPE/frame deg | drift % (longest seg) | median ms | p95 ms | IQR ms |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
         print("| %s | %s | %d | %.1f%% | %.1f | %.4f | %.4f | %.3f | %.2f (%g m) | %.1f | %.1f | %.1f |" % (
@@ -141,8 +154,6 @@ def main():
     print("per-stage median ms:")
     for r in results:
         print("  %-12s %-13s %s" % (r["name"], r["mode"], ", ".join("%s %.1f" % kv for kv in r["stages"].items())))
-    with open(os.path.join(args.out, "results.json"), "w") as f:
-        json.dump(results, f, indent=1)
     return 0
 
 

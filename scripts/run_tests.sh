@@ -6,6 +6,9 @@ set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 bash "${HERE}/setup.sh"
 source "${HERE}/env.sh"
+# House style (STYLE.md item 10): a formatting difference fails the run like a test would.
+format_rc=0
+bash "${HERE}/check_format.sh" || format_rc=1
 cd "${PL_SLAM_WS}"
 
 results="${PL_SLAM_WS}/build/test_results"
@@ -27,4 +30,6 @@ if [ "${verdict}" -ne 0 ]; then
 fi
 summary_rc=0
 /usr/bin/python3 "${HERE}/summarize_junit.py" "${results}" || summary_rc=$?
-if [ "${build_rc}" -ne 0 ] || [ "${verdict}" -ne 0 ] || [ "${summary_rc}" -ne 0 ]; then exit 1; fi
+if [ "${build_rc}" -ne 0 ] || [ "${verdict}" -ne 0 ] || [ "${summary_rc}" -ne 0 ] || [ "${format_rc}" -ne 0 ]; then
+  exit 1
+fi

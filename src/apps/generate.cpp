@@ -25,10 +25,13 @@ constexpr char kUsage[] =
     "  --start-time S        first timestamp in seconds (default 1000)\n";
 
 int Run(int argc, char** argv) {
-  const pl_slam::CommandLine cl(argc, argv,
-                                {"scene", "euroc", "bag", "frames", "rate", "noise", "seed", "start-time"},
-                                {"exposure-change", "help"});
-  if (cl.Has("help")) { std::cout << kUsage; return 0; }
+  const pl_slam::CommandLine cl(
+      argc, argv, {"scene", "euroc", "bag", "frames", "rate", "noise", "seed", "start-time"},
+      {"exposure-change", "help"});
+  if (cl.Has("help")) {
+    std::cout << kUsage;
+    return 0;
+  }
   if (!cl.Has("scene") || (!cl.Has("euroc") && !cl.Has("bag")) || !cl.positional().empty()) {
     std::cerr << kUsage;
     return 2;
@@ -46,7 +49,8 @@ int Run(int argc, char** argv) {
 
   std::unique_ptr<pl_slam::EurocWriter> euroc;
   std::unique_ptr<pl_slam::ros_layer::StereoBagWriter> bag;
-  if (cl.Has("euroc")) euroc = std::make_unique<pl_slam::EurocWriter>(cl.Get("euroc", ""), seq.camera(), opt.rate_hz);
+  if (cl.Has("euroc"))
+    euroc = std::make_unique<pl_slam::EurocWriter>(cl.Get("euroc", ""), seq.camera(), opt.rate_hz);
   if (cl.Has("bag")) {
     const std::filesystem::path p(cl.Get("bag", ""));
     if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());

@@ -60,16 +60,18 @@ std::string TimingCsv(const std::vector<TimingRow>& rows) {
   std::vector<std::string> stages;
   for (const auto& r : rows)
     for (const auto& s : r.stages)
-      if (std::find(stages.begin(), stages.end(), s.first) == stages.end()) stages.push_back(s.first);
+      if (std::find(stages.begin(), stages.end(), s.first) == stages.end())
+        stages.push_back(s.first);
   std::ostringstream os;
   os << "frame,stamp,state,points,lines,point_inliers,line_inliers";
   for (const auto& s : stages) os << "," << s << "_ms";
   os << ",total_ms\n" << std::fixed;
   for (const auto& r : rows) {
-    os << r.index << "," << std::setprecision(9) << r.stamp << "," << r.state << "," << r.points << ","
-       << r.lines << "," << r.point_inliers << "," << r.line_inliers << std::setprecision(3);
+    os << r.index << "," << std::setprecision(9) << r.stamp << "," << r.state << "," << r.points
+       << "," << r.lines << "," << r.point_inliers << "," << r.line_inliers << std::setprecision(3);
     for (const auto& s : stages) {
-      auto it = std::find_if(r.stages.begin(), r.stages.end(), [&](const auto& p) { return p.first == s; });
+      auto it = std::find_if(r.stages.begin(), r.stages.end(),
+                             [&](const auto& p) { return p.first == s; });
       os << "," << (it == r.stages.end() ? 0.0 : it->second);
     }
     os << "," << r.total_ms << "\n";
@@ -82,7 +84,10 @@ int Run(int argc, char** argv) {
                                 {"out", "max-frames", "left-topic", "right-topic", "left-info",
                                  "right-info", "gt-topic", "config", "mode", "set"},
                                 {"quiet", "help", "print-config"});
-  if (cl.Has("help")) { std::cout << kUsage; return 0; }
+  if (cl.Has("help")) {
+    std::cout << kUsage;
+    return 0;
+  }
   pl_slam::SystemOptions options;
   const pl_slam::OptionTable table = pl_slam::MakeOptionTable(&options);
   if (cl.Has("config")) pl_slam::LoadYamlOptions(cl.Get("config", ""), table);
@@ -92,17 +97,24 @@ int Run(int argc, char** argv) {
     std::string assignment;
     while (std::getline(ss, assignment, ',')) table.SetAssignment(assignment);
   }
-  if (cl.Has("print-config")) { std::cout << table.Describe(); return 0; }
+  if (cl.Has("print-config")) {
+    std::cout << table.Describe();
+    return 0;
+  }
   const std::string invalid = options.Validate();
   if (!invalid.empty()) throw pl_slam::ConfigError(invalid);
-  if (cl.positional().size() != 1) { std::cerr << kUsage; return 2; }
+  if (cl.positional().size() != 1) {
+    std::cerr << kUsage;
+    return 2;
+  }
   const std::string input = cl.positional()[0];
   const std::string out_dir = cl.Get("out", "output/offline");
   const int max_frames = cl.GetInt("max-frames", -1);
   if (cl.Has("quiet")) pl_slam::SetLogLevel(pl_slam::LogLevel::kWarn);
 
   std::unique_ptr<pl_slam::StereoSource> source;
-  if (std::filesystem::is_regular_file(input) || (input.size() > 4 && input.substr(input.size() - 4) == ".bag")) {
+  if (std::filesystem::is_regular_file(input) ||
+      (input.size() > 4 && input.substr(input.size() - 4) == ".bag")) {
     pl_slam::ros_layer::BagTopics topics;
     topics.left_image = cl.Get("left-topic", topics.left_image);
     topics.right_image = cl.Get("right-topic", topics.right_image);
@@ -127,8 +139,9 @@ int Run(int argc, char** argv) {
   pl_slam::StereoFrame frame;
   while ((max_frames < 0 || static_cast<int>(rows.size()) < max_frames) && source->Next(&frame)) {
     const pl_slam::FrameResult r = system.Process(frame);
-    rows.push_back({frame.index, frame.stamp_s(), pl_slam::TrackingStateName(r.state), r.points_detected,
-                    r.lines_detected, r.point_inliers, r.line_inliers, r.stage_ms, r.total_ms});
+    rows.push_back({frame.index, frame.stamp_s(), pl_slam::TrackingStateName(r.state),
+                    r.points_detected, r.lines_detected, r.point_inliers, r.line_inliers,
+                    r.stage_ms, r.total_ms});
     totals.push_back(r.total_ms);
     if (!r.pose_valid) ++lost;
   }
@@ -142,12 +155,14 @@ int Run(int argc, char** argv) {
   for (const auto& r : rows) frame_times << r.stamp << "\n";
   pl_slam::WriteFileAtomic(out_dir + "/frames.txt", frame_times.str());
   if (!source->ground_truth().empty()) {
-    pl_slam::WriteTrajectory(out_dir + "/groundtruth.tum", source->ground_truth(), pl_slam::TrajectoryFormat::kTum);
+    pl_slam::WriteTrajectory(out_dir + "/groundtruth.tum", source->ground_truth(),
+                             pl_slam::TrajectoryFormat::kTum);
   }
   std::cout << std::fixed << std::setprecision(2) << "frames " << rows.size() << ", with pose "
             << traj.size() << ", without pose " << lost << "; tracking time median "
             << Percentile(totals, 0.5) << " ms, p95 " << Percentile(totals, 0.95) << " ms\n"
-            << "wrote " << traj_path << ", " << out_dir << "/timing.csv, " << out_dir << "/frames.txt"
+            << "wrote " << traj_path << ", " << out_dir << "/timing.csv, " << out_dir
+            << "/frames.txt"
             << (source->ground_truth().empty() ? "" : ", " + out_dir + "/groundtruth.tum") << "\n";
   return 0;
 }

@@ -9,13 +9,20 @@ namespace pl_slam {
 
 std::string PointDetectorOptions::Validate() const {
   std::ostringstream os;
-  if (max_points < 10 || max_points > 20000) os << "max_points=" << max_points << " must be in [10, 20000]";
-  else if (grid_cols < 1 || grid_cols > 64) os << "grid_cols=" << grid_cols << " must be in [1, 64]";
-  else if (grid_rows < 1 || grid_rows > 64) os << "grid_rows=" << grid_rows << " must be in [1, 64]";
-  else if (levels < 1 || levels > 12) os << "levels=" << levels << " must be in [1, 12]";
-  else if (!(scale_factor > 1.0 && scale_factor <= 2.0)) os << "scale_factor=" << scale_factor << " must be in (1, 2]";
-  else if (fast_threshold < 1 || fast_threshold > 100) os << "fast_threshold=" << fast_threshold << " must be in [1, 100]";
-  else if (!(oversample >= 1.0 && oversample <= 20.0)) os << "oversample=" << oversample << " must be in [1, 20]";
+  if (max_points < 10 || max_points > 20000)
+    os << "max_points=" << max_points << " must be in [10, 20000]";
+  else if (grid_cols < 1 || grid_cols > 64)
+    os << "grid_cols=" << grid_cols << " must be in [1, 64]";
+  else if (grid_rows < 1 || grid_rows > 64)
+    os << "grid_rows=" << grid_rows << " must be in [1, 64]";
+  else if (levels < 1 || levels > 12)
+    os << "levels=" << levels << " must be in [1, 12]";
+  else if (!(scale_factor > 1.0 && scale_factor <= 2.0))
+    os << "scale_factor=" << scale_factor << " must be in (1, 2]";
+  else if (fast_threshold < 1 || fast_threshold > 100)
+    os << "fast_threshold=" << fast_threshold << " must be in [1, 100]";
+  else if (!(oversample >= 1.0 && oversample <= 20.0))
+    os << "oversample=" << oversample << " must be in [1, 20]";
   return os.str();
 }
 
@@ -24,15 +31,18 @@ PointDetector::PointDetector(const PointDetectorOptions& options) : options_(opt
   if (!err.empty()) throw ConfigError("points." + err);
 }
 
-std::vector<cv::KeyPoint> BucketKeypoints(const std::vector<cv::KeyPoint>& keypoints, cv::Size image_size,
-                                          int grid_cols, int grid_rows, int max_keep) {
+std::vector<cv::KeyPoint> BucketKeypoints(const std::vector<cv::KeyPoint>& keypoints,
+                                          cv::Size image_size, int grid_cols, int grid_rows,
+                                          int max_keep) {
   if (static_cast<int>(keypoints.size()) <= max_keep) return keypoints;
   const int cells = grid_cols * grid_rows;
   std::vector<std::vector<int>> bucket(cells);
   for (int i = 0; i < static_cast<int>(keypoints.size()); ++i) {
     const cv::Point2f& p = keypoints[i].pt;
-    const int cx = std::clamp(static_cast<int>(p.x * grid_cols / image_size.width), 0, grid_cols - 1);
-    const int cy = std::clamp(static_cast<int>(p.y * grid_rows / image_size.height), 0, grid_rows - 1);
+    const int cx =
+        std::clamp(static_cast<int>(p.x * grid_cols / image_size.width), 0, grid_cols - 1);
+    const int cy =
+        std::clamp(static_cast<int>(p.y * grid_rows / image_size.height), 0, grid_rows - 1);
     bucket[cy * grid_cols + cx].push_back(i);
   }
   auto stronger = [&](int a, int b) { return keypoints[a].response > keypoints[b].response; };
@@ -61,8 +71,9 @@ std::vector<cv::KeyPoint> BucketKeypoints(const std::vector<cv::KeyPoint>& keypo
     }
     for (int i : leftover) out.push_back(keypoints[i]);
   } else if (static_cast<int>(out.size()) > max_keep) {
-    std::nth_element(out.begin(), out.begin() + max_keep, out.end(),
-                     [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
+    std::nth_element(
+        out.begin(), out.begin() + max_keep, out.end(),
+        [](const cv::KeyPoint& a, const cv::KeyPoint& b) { return a.response > b.response; });
     out.resize(max_keep);
   }
   return out;
@@ -74,13 +85,14 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
   *descriptors = cv::Mat();
   if (image.empty()) return;
   const int candidates = static_cast<int>(options_.max_points * options_.oversample);
-  cv::Ptr<cv::ORB> orb = cv::ORB::create(candidates, static_cast<float>(options_.scale_factor),
-                                         options_.levels, 19, 0, 2, cv::ORB::HARRIS_SCORE, 31,
-                                         options_.fast_threshold);
+  cv::Ptr<cv::ORB> orb =
+      cv::ORB::create(candidates, static_cast<float>(options_.scale_factor), options_.levels, 19, 0,
+                      2, cv::ORB::HARRIS_SCORE, 31, options_.fast_threshold);
   std::vector<cv::KeyPoint> all;
   orb->detect(image, all);
   if (all.empty()) return;
-  *keypoints = BucketKeypoints(all, image.size(), options_.grid_cols, options_.grid_rows, options_.max_points);
+  *keypoints = BucketKeypoints(all, image.size(), options_.grid_cols, options_.grid_rows,
+                               options_.max_points);
   // Descriptors only for the kept keypoints (ORB may drop a few near the border).
   orb->compute(image, *keypoints, *descriptors);
 }

@@ -10,13 +10,20 @@ namespace pl_slam {
 
 std::string PointMatchingOptions::Validate() const {
   std::ostringstream os;
-  if (max_distance < 1 || max_distance > 256) os << "max_distance=" << max_distance << " must be in [1, 256]";
-  else if (!(stereo_ratio > 0.0 && stereo_ratio <= 1.0)) os << "stereo_ratio=" << stereo_ratio << " must be in (0, 1]";
-  else if (!(stereo_row_tolerance >= 0.0 && stereo_row_tolerance <= 10.0)) os << "stereo_row_tolerance=" << stereo_row_tolerance << " must be in [0, 10]";
-  else if (!(min_disparity >= 0.0 && min_disparity < max_disparity)) os << "min_disparity=" << min_disparity << " must be in [0, max_disparity)";
-  else if (!(max_disparity > 0.0 && max_disparity <= 1000.0)) os << "max_disparity=" << max_disparity << " must be in (0, 1000]";
-  else if (!(f2f_ratio > 0.0 && f2f_ratio <= 1.0)) os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
-  else if (!(search_radius > 0.0 && search_radius <= 1000.0)) os << "search_radius=" << search_radius << " must be in (0, 1000]";
+  if (max_distance < 1 || max_distance > 256)
+    os << "max_distance=" << max_distance << " must be in [1, 256]";
+  else if (!(stereo_ratio > 0.0 && stereo_ratio <= 1.0))
+    os << "stereo_ratio=" << stereo_ratio << " must be in (0, 1]";
+  else if (!(stereo_row_tolerance >= 0.0 && stereo_row_tolerance <= 10.0))
+    os << "stereo_row_tolerance=" << stereo_row_tolerance << " must be in [0, 10]";
+  else if (!(min_disparity >= 0.0 && min_disparity < max_disparity))
+    os << "min_disparity=" << min_disparity << " must be in [0, max_disparity)";
+  else if (!(max_disparity > 0.0 && max_disparity <= 1000.0))
+    os << "max_disparity=" << max_disparity << " must be in (0, 1000]";
+  else if (!(f2f_ratio > 0.0 && f2f_ratio <= 1.0))
+    os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
+  else if (!(search_radius > 0.0 && search_radius <= 1000.0))
+    os << "search_radius=" << search_radius << " must be in (0, 1000]";
   return os.str();
 }
 
@@ -37,7 +44,8 @@ bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, doubl
   constexpr int kHalf = 5, kSearch = 3;
   const int u0 = static_cast<int>(std::lround(ul)), v0 = static_cast<int>(std::lround(vl));
   const int ur0 = static_cast<int>(std::lround(*ur));
-  if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols) return false;
+  if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols)
+    return false;
   if (ur0 - kHalf - kSearch < 0 || ur0 + kHalf + kSearch >= right.cols) return false;
   const int lc = left.at<uint8_t>(v0, u0);
   int cost[2 * kSearch + 1];
@@ -66,10 +74,11 @@ bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, doubl
 
 }  // namespace
 
-int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image, const cv::Mat& right_image,
-                      const std::vector<cv::KeyPoint>& left_kp, const cv::Mat& left_desc,
-                      const std::vector<cv::KeyPoint>& right_kp, const cv::Mat& right_desc,
-                      const PointMatchingOptions& options, PointFeatures* points) {
+int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
+                      const cv::Mat& right_image, const std::vector<cv::KeyPoint>& left_kp,
+                      const cv::Mat& left_desc, const std::vector<cv::KeyPoint>& right_kp,
+                      const cv::Mat& right_desc, const PointMatchingOptions& options,
+                      PointFeatures* points) {
   points->assign(left_kp.size(), PointFeature());
   for (size_t i = 0; i < left_kp.size(); ++i) {
     (*points)[i].uv = Eigen::Vector2d(left_kp[i].pt.x, left_kp[i].pt.y);
@@ -85,7 +94,8 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image, con
     by_row[v].push_back(j);
   }
   std::vector<int> match_of_left(left_kp.size(), -1);
-  std::vector<int> best_left_of_right(right_kp.size(), -1), best_dist_of_right(right_kp.size(), INT_MAX);
+  std::vector<int> best_left_of_right(right_kp.size(), -1),
+      best_dist_of_right(right_kp.size(), INT_MAX);
   for (int i = 0; i < static_cast<int>(left_kp.size()); ++i) {
     const cv::KeyPoint& kl = left_kp[i];
     const double tol = options.stereo_row_tolerance * std::pow(1.2, kl.octave);
@@ -100,10 +110,18 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image, con
         if (d < options.min_disparity || d > options.max_disparity) continue;
         if (std::abs(kl.octave - kr.octave) > 1) continue;
         const int dist = HammingDistance32(dl, right_desc.ptr<uint8_t>(j));
-        if (dist < best) { second = best; best = dist; best_j = j; }
-        else if (dist < second) { second = dist; }
+        if (dist < best) {
+          second = best;
+          best = dist;
+          best_j = j;
+        } else if (dist < second) {
+          second = dist;
+        }
         // The right keypoint's own best over every left candidate: the mutual check.
-        if (dist < best_dist_of_right[j]) { best_dist_of_right[j] = dist; best_left_of_right[j] = i; }
+        if (dist < best_dist_of_right[j]) {
+          best_dist_of_right[j] = dist;
+          best_left_of_right[j] = i;
+        }
       }
     }
     if (best_j < 0 || best > options.max_distance) continue;
@@ -129,17 +147,17 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image, con
   return matched;
 }
 
-std::vector<std::pair<int, int>> MatchPointsFrameToFrame(const StereoCamera& camera,
-                                                         const PointFeatures& prev, const cv::Mat& prev_desc,
-                                                         const PointFeatures& cur, const cv::Mat& cur_desc,
-                                                         const PointMatchingOptions& options,
-                                                         const SE3* T_cur_prev) {
+std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
+    const StereoCamera& camera, const PointFeatures& prev, const cv::Mat& prev_desc,
+    const PointFeatures& cur, const cv::Mat& cur_desc, const PointMatchingOptions& options,
+    const SE3* T_cur_prev) {
   std::vector<std::pair<int, int>> out;
   if (prev.empty() || cur.empty() || prev_desc.empty() || cur_desc.empty()) return out;
 
   // Grid index of the current points for the guided search.
   constexpr int kCell = 32;
-  const int gw = std::max(1, (camera.width + kCell - 1) / kCell), gh = std::max(1, (camera.height + kCell - 1) / kCell);
+  const int gw = std::max(1, (camera.width + kCell - 1) / kCell),
+            gh = std::max(1, (camera.height + kCell - 1) / kCell);
   std::vector<std::vector<int>> grid;
   if (T_cur_prev) {
     grid.resize(static_cast<size_t>(gw) * gh);
@@ -159,10 +177,18 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(const StereoCamera& cam
     auto consider = [&](int j) {
       if (std::abs(prev[i].octave - cur[j].octave) > 2) return;
       const int dist = HammingDistance32(dp, cur_desc.ptr<uint8_t>(j));
-      if (dist < best) { second = best; best = dist; best_j = j; }
-      else if (dist < second) { second = dist; }
+      if (dist < best) {
+        second = best;
+        best = dist;
+        best_j = j;
+      } else if (dist < second) {
+        second = dist;
+      }
       // The current point's own best over every previous candidate: the mutual check.
-      if (dist < best_dist_of_cur[j]) { best_dist_of_cur[j] = dist; best_prev_of_cur[j] = i; }
+      if (dist < best_dist_of_cur[j]) {
+        best_dist_of_cur[j] = dist;
+        best_prev_of_cur[j] = i;
+      }
     };
     if (T_cur_prev) {
       const Eigen::Vector3d p = (*T_cur_prev) * prev[i].p_c;

@@ -52,13 +52,16 @@ BagStereoSource::BagStereoSource(const std::string& path, const BagTopics& topic
                          topics_.right_info + " and no calibration given");
       }
       sensor_msgs::CameraInfo::ConstPtr left, right;
-      for (const rosbag::MessageInstance& m : rosbag::View(bag_, rosbag::TopicQuery(topics_.left_info))) {
+      for (const rosbag::MessageInstance& m :
+           rosbag::View(bag_, rosbag::TopicQuery(topics_.left_info))) {
         if ((left = m.instantiate<sensor_msgs::CameraInfo>())) break;
       }
-      for (const rosbag::MessageInstance& m : rosbag::View(bag_, rosbag::TopicQuery(topics_.right_info))) {
+      for (const rosbag::MessageInstance& m :
+           rosbag::View(bag_, rosbag::TopicQuery(topics_.right_info))) {
         if ((right = m.instantiate<sensor_msgs::CameraInfo>())) break;
       }
-      if (!left || !right) throw InputError(path + ": camera_info topics hold no sensor_msgs/CameraInfo");
+      if (!left || !right)
+        throw InputError(path + ": camera_info topics hold no sensor_msgs/CameraInfo");
       try {
         camera_ = StereoCameraFromInfo(*left, *right);
       } catch (const InputError& e) {
@@ -66,7 +69,8 @@ BagStereoSource::BagStereoSource(const std::string& path, const BagTopics& topic
       }
     }
     if (present.count(topics_.ground_truth)) {
-      for (const rosbag::MessageInstance& m : rosbag::View(bag_, rosbag::TopicQuery(topics_.ground_truth))) {
+      for (const rosbag::MessageInstance& m :
+           rosbag::View(bag_, rosbag::TopicQuery(topics_.ground_truth))) {
         auto p = m.instantiate<geometry_msgs::PoseStamped>();
         if (!p) continue;
         StampedPose sp;
@@ -75,8 +79,8 @@ BagStereoSource::BagStereoSource(const std::string& path, const BagTopics& topic
         ground_truth_.push_back(sp);
       }
     }
-    view_ = std::make_unique<rosbag::View>(
-        bag_, rosbag::TopicQuery(std::vector<std::string>{topics_.left_image, topics_.right_image}));
+    view_ = std::make_unique<rosbag::View>(bag_, rosbag::TopicQuery(std::vector<std::string>{
+                                                     topics_.left_image, topics_.right_image}));
     it_ = view_->begin();
   } catch (const rosbag::BagException& e) {
     throw InputError(path + ": corrupt bag (" + e.what() + ")");
@@ -108,7 +112,10 @@ bool BagStereoSource::Next(StereoFrame* frame) {
       if (match == other.end()) {
         mine[stamp] = mono;
         // Partners arrive close together; anything far older will never pair.
-        while (mine.size() > 8) { mine.erase(mine.begin()); ++unpaired_; }
+        while (mine.size() > 8) {
+          mine.erase(mine.begin());
+          ++unpaired_;
+        }
         continue;
       }
       frame->stamp_ns = stamp;
@@ -129,8 +136,12 @@ bool BagStereoSource::Next(StereoFrame* frame) {
 StereoBagWriter::StereoBagWriter(const std::string& path, const StereoCamera& camera,
                                  const BagTopics& topics, const std::string& left_frame,
                                  const std::string& right_frame)
-    : path_(path), tmp_path_(path + ".tmp"), camera_(camera), topics_(topics),
-      left_frame_(left_frame), right_frame_(right_frame) {
+    : path_(path),
+      tmp_path_(path + ".tmp"),
+      camera_(camera),
+      topics_(topics),
+      left_frame_(left_frame),
+      right_frame_(right_frame) {
   try {
     bag_.open(tmp_path_, rosbag::bagmode::Write);
     bag_.setCompression(rosbag::compression::Uncompressed);
@@ -143,7 +154,10 @@ StereoBagWriter::StereoBagWriter(const std::string& path, const StereoCamera& ca
 StereoBagWriter::~StereoBagWriter() {
   if (open_) {
     // Not closed explicitly (an exception unwound us): leave no half-written bag behind.
-    try { bag_.close(); } catch (...) {}
+    try {
+      bag_.close();
+    } catch (...) {
+    }
     std::remove(tmp_path_.c_str());
   }
 }
@@ -165,7 +179,8 @@ void StereoBagWriter::Write(const StereoFrame& frame) {
     msg.step = static_cast<uint32_t>(img.cols);
     msg.data.resize(static_cast<size_t>(img.rows) * img.cols);
     for (int r = 0; r < img.rows; ++r) {
-      std::copy(img.ptr<uint8_t>(r), img.ptr<uint8_t>(r) + img.cols, msg.data.begin() + r * img.cols);
+      std::copy(img.ptr<uint8_t>(r), img.ptr<uint8_t>(r) + img.cols,
+                msg.data.begin() + r * img.cols);
     }
     bag_.write(side == 0 ? topics_.left_image : topics_.right_image, stamp, msg);
   }

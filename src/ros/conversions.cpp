@@ -17,13 +17,23 @@ cv::Mat ImageToMono8(const sensor_msgs::Image& msg) {
   // Known encodings only: (OpenCV type, conversion to grey or -1 when none is needed).
   int type = -1, code = -1;
   const std::string& e = msg.encoding;
-  if (e == enc::MONO8 || e == enc::TYPE_8UC1) type = CV_8UC1;
-  else if (e == enc::MONO16 || e == enc::TYPE_16UC1) type = CV_16UC1;
-  else if (e == enc::RGB8) { type = CV_8UC3; code = cv::COLOR_RGB2GRAY; }
-  else if (e == enc::BGR8) { type = CV_8UC3; code = cv::COLOR_BGR2GRAY; }
-  else if (e == enc::RGBA8) { type = CV_8UC4; code = cv::COLOR_RGBA2GRAY; }
-  else if (e == enc::BGRA8) { type = CV_8UC4; code = cv::COLOR_BGRA2GRAY; }
-  else {
+  if (e == enc::MONO8 || e == enc::TYPE_8UC1)
+    type = CV_8UC1;
+  else if (e == enc::MONO16 || e == enc::TYPE_16UC1)
+    type = CV_16UC1;
+  else if (e == enc::RGB8) {
+    type = CV_8UC3;
+    code = cv::COLOR_RGB2GRAY;
+  } else if (e == enc::BGR8) {
+    type = CV_8UC3;
+    code = cv::COLOR_BGR2GRAY;
+  } else if (e == enc::RGBA8) {
+    type = CV_8UC4;
+    code = cv::COLOR_RGBA2GRAY;
+  } else if (e == enc::BGRA8) {
+    type = CV_8UC4;
+    code = cv::COLOR_BGRA2GRAY;
+  } else {
     throw InputError("unsupported image encoding '" + e +
                      "' (expected mono8, mono16, rgb8, bgr8, rgba8 or bgra8)");
   }
@@ -41,16 +51,20 @@ cv::Mat ImageToMono8(const sensor_msgs::Image& msg) {
   const cv::Mat wrapped(static_cast<int>(msg.height), static_cast<int>(msg.width), type,
                         const_cast<uint8_t*>(msg.data.data()), msg.step);
   cv::Mat out;
-  if (type == CV_8UC1) out = wrapped.clone();
-  else if (type == CV_16UC1) wrapped.convertTo(out, CV_8UC1, 1.0 / 256.0);
-  else cv::cvtColor(wrapped, out, code);
+  if (type == CV_8UC1)
+    out = wrapped.clone();
+  else if (type == CV_16UC1)
+    wrapped.convertTo(out, CV_8UC1, 1.0 / 256.0);
+  else
+    cv::cvtColor(wrapped, out, code);
   return out;
 }
 
 StereoCamera StereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
                                   const sensor_msgs::CameraInfo& right) {
   auto fail = [](const std::string& what) { throw InputError("camera_info: " + what); };
-  if (left.P[0] <= 0.0 || left.P[5] <= 0.0) fail("left P has no focal length (camera not calibrated?)");
+  if (left.P[0] <= 0.0 || left.P[5] <= 0.0)
+    fail("left P has no focal length (camera not calibrated?)");
   if (right.P[0] <= 0.0) fail("right P has no focal length (camera not calibrated?)");
   if (left.width != right.width || left.height != right.height) {
     std::ostringstream os;
@@ -58,8 +72,8 @@ StereoCamera StereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
        << right.height << " sizes differ";
     fail(os.str());
   }
-  if (std::abs(left.P[0] - right.P[0]) > 1e-3 * left.P[0] || std::abs(left.P[2] - right.P[2]) > 0.5 ||
-      std::abs(left.P[6] - right.P[6]) > 0.5) {
+  if (std::abs(left.P[0] - right.P[0]) > 1e-3 * left.P[0] ||
+      std::abs(left.P[2] - right.P[2]) > 0.5 || std::abs(left.P[6] - right.P[6]) > 0.5) {
     fail("left and right projection matrices differ: the pair is not rectified");
   }
   StereoCamera cam;

@@ -23,13 +23,21 @@ namespace ros_layer {
 
 std::string NodeletOptions::Validate() const {
   std::ostringstream os;
-  auto bad_frame = [](const std::string& f) { return f.empty() || f.find(' ') != std::string::npos; };
-  if (bad_frame(map_frame)) os << "map_frame='" << map_frame << "' must be a non-empty frame name";
-  else if (bad_frame(odom_frame)) os << "odom_frame='" << odom_frame << "' must be a non-empty frame name";
-  else if (bad_frame(base_frame)) os << "base_frame='" << base_frame << "' must be a non-empty frame name";
-  else if (!(sync_tolerance > 0.0 && sync_tolerance <= 1.0)) os << "sync_tolerance=" << sync_tolerance << " must be in (0, 1] s";
-  else if (queue_size < 1 || queue_size > 100) os << "queue_size=" << queue_size << " must be in [1, 100]";
-  else os << system.Validate();
+  auto bad_frame = [](const std::string& f) {
+    return f.empty() || f.find(' ') != std::string::npos;
+  };
+  if (bad_frame(map_frame))
+    os << "map_frame='" << map_frame << "' must be a non-empty frame name";
+  else if (bad_frame(odom_frame))
+    os << "odom_frame='" << odom_frame << "' must be a non-empty frame name";
+  else if (bad_frame(base_frame))
+    os << "base_frame='" << base_frame << "' must be a non-empty frame name";
+  else if (!(sync_tolerance > 0.0 && sync_tolerance <= 1.0))
+    os << "sync_tolerance=" << sync_tolerance << " must be in (0, 1] s";
+  else if (queue_size < 1 || queue_size > 100)
+    os << "queue_size=" << queue_size << " must be in [1, 100]";
+  else
+    os << system.Validate();
   return os.str();
 }
 
@@ -39,16 +47,25 @@ namespace {
 void InstallRosLogSink() {
   SetLogSink([](LogLevel level, const std::string& msg) {
     switch (level) {
-      case LogLevel::kDebug: ROS_DEBUG_NAMED("pl_slam", "%s", msg.c_str()); break;
-      case LogLevel::kInfo: ROS_INFO_NAMED("pl_slam", "%s", msg.c_str()); break;
-      case LogLevel::kWarn: ROS_WARN_NAMED("pl_slam", "%s", msg.c_str()); break;
-      case LogLevel::kError: ROS_ERROR_NAMED("pl_slam", "%s", msg.c_str()); break;
+      case LogLevel::kDebug:
+        ROS_DEBUG_NAMED("pl_slam", "%s", msg.c_str());
+        break;
+      case LogLevel::kInfo:
+        ROS_INFO_NAMED("pl_slam", "%s", msg.c_str());
+        break;
+      case LogLevel::kWarn:
+        ROS_WARN_NAMED("pl_slam", "%s", msg.c_str());
+        break;
+      case LogLevel::kError:
+        ROS_ERROR_NAMED("pl_slam", "%s", msg.c_str());
+        break;
     }
   });
 }
 
 geometry_msgs::TransformStamped ToTransformMsg(const SE3& T, const ros::Time& stamp,
-                                              const std::string& parent, const std::string& child) {
+                                               const std::string& parent,
+                                               const std::string& child) {
   geometry_msgs::TransformStamped tf;
   tf.header.stamp = stamp;
   tf.header.frame_id = parent;
@@ -76,10 +93,13 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
   table.Add("map_frame", &o->map_frame, "fixed world frame (REP-105)");
   table.Add("odom_frame", &o->odom_frame, "odometry frame (REP-105)");
   table.Add("base_frame", &o->base_frame, "robot body frame");
-  table.Add("camera_frame", &o->camera_frame, "left optical frame; empty = the image header's frame_id");
+  table.Add("camera_frame", &o->camera_frame,
+            "left optical frame; empty = the image header's frame_id");
   table.Add("publish_tf", &o->publish_tf, "broadcast map -> odom -> base_frame");
-  table.Add("approximate_sync", &o->approximate_sync, "ApproximateTime instead of ExactTime synchronisation");
-  table.Add("sync_tolerance", &o->sync_tolerance, "largest stamp difference with approximate sync, seconds");
+  table.Add("approximate_sync", &o->approximate_sync,
+            "ApproximateTime instead of ExactTime synchronisation");
+  table.Add("sync_tolerance", &o->sync_tolerance,
+            "largest stamp difference with approximate sync, seconds");
   table.Add("queue_size", &o->queue_size, "subscriber and synchroniser queue length");
   return table;
 }
@@ -90,11 +110,20 @@ namespace {
 bool ParamToText(const XmlRpc::XmlRpcValue& v, std::string* out) {
   std::ostringstream os;
   switch (v.getType()) {
-    case XmlRpc::XmlRpcValue::TypeBoolean: os << (static_cast<bool>(const_cast<XmlRpc::XmlRpcValue&>(v)) ? "true" : "false"); break;
-    case XmlRpc::XmlRpcValue::TypeInt: os << static_cast<int>(const_cast<XmlRpc::XmlRpcValue&>(v)); break;
-    case XmlRpc::XmlRpcValue::TypeDouble: os << std::setprecision(17) << static_cast<double>(const_cast<XmlRpc::XmlRpcValue&>(v)); break;
-    case XmlRpc::XmlRpcValue::TypeString: os << static_cast<std::string>(const_cast<XmlRpc::XmlRpcValue&>(v)); break;
-    default: return false;
+    case XmlRpc::XmlRpcValue::TypeBoolean:
+      os << (static_cast<bool>(const_cast<XmlRpc::XmlRpcValue&>(v)) ? "true" : "false");
+      break;
+    case XmlRpc::XmlRpcValue::TypeInt:
+      os << static_cast<int>(const_cast<XmlRpc::XmlRpcValue&>(v));
+      break;
+    case XmlRpc::XmlRpcValue::TypeDouble:
+      os << std::setprecision(17) << static_cast<double>(const_cast<XmlRpc::XmlRpcValue&>(v));
+      break;
+    case XmlRpc::XmlRpcValue::TypeString:
+      os << static_cast<std::string>(const_cast<XmlRpc::XmlRpcValue&>(v));
+      break;
+    default:
+      return false;
   }
   *out = os.str();
   return true;
@@ -123,8 +152,10 @@ bool StereoSlamNodelet::LoadOptions(ros::NodeHandle& pnh) {
     try {
       table.Set(key, text);
     } catch (const ConfigError& e) {
-      NODELET_FATAL("pl_slam: parameter %s: %s (print the known keys with `pl_slam_offline "
-                    "--print-config`); refusing to start", n.c_str(), e.what());
+      NODELET_FATAL(
+          "pl_slam: parameter %s: %s (print the known keys with `pl_slam_offline "
+          "--print-config`); refusing to start",
+          n.c_str(), e.what());
       return false;
     }
   }
@@ -160,26 +191,28 @@ void StereoSlamNodelet::onInit() {
 
   it_ = std::make_unique<image_transport::ImageTransport>(nh);
   const int q = options_.queue_size;
-  left_sub_.subscribe(*it_, "left/image", q, image_transport::TransportHints("raw", ros::TransportHints(), pnh));
-  right_sub_.subscribe(*it_, "right/image", q, image_transport::TransportHints("raw", ros::TransportHints(), pnh));
+  left_sub_.subscribe(*it_, "left/image", q,
+                      image_transport::TransportHints("raw", ros::TransportHints(), pnh));
+  right_sub_.subscribe(*it_, "right/image", q,
+                       image_transport::TransportHints("raw", ros::TransportHints(), pnh));
   left_info_sub_.subscribe(nh, "left/camera_info", q);
   right_info_sub_.subscribe(nh, "right/camera_info", q);
   if (options_.approximate_sync) {
     approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
         ApproxPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
     approx_sync_->setMaxIntervalDuration(ros::Duration(options_.sync_tolerance));
-    approx_sync_->registerCallback(boost::bind(&StereoSlamNodelet::StereoCallback, this, boost::placeholders::_1,
-                                               boost::placeholders::_2, boost::placeholders::_3,
-                                               boost::placeholders::_4));
+    approx_sync_->registerCallback(boost::bind(&StereoSlamNodelet::StereoCallback, this,
+                                               boost::placeholders::_1, boost::placeholders::_2,
+                                               boost::placeholders::_3, boost::placeholders::_4));
   } else {
     exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
         ExactPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
-    exact_sync_->registerCallback(boost::bind(&StereoSlamNodelet::StereoCallback, this, boost::placeholders::_1,
-                                               boost::placeholders::_2, boost::placeholders::_3,
-                                               boost::placeholders::_4));
+    exact_sync_->registerCallback(boost::bind(&StereoSlamNodelet::StereoCallback, this,
+                                              boost::placeholders::_1, boost::placeholders::_2,
+                                              boost::placeholders::_3, boost::placeholders::_4));
   }
-  NODELET_INFO("pl_slam: waiting for %s, %s and their camera_info",
-               left_sub_.getTopic().c_str(), right_sub_.getTopic().c_str());
+  NODELET_INFO("pl_slam: waiting for %s, %s and their camera_info", left_sub_.getTopic().c_str(),
+               right_sub_.getTopic().c_str());
 }
 
 void StereoSlamNodelet::StereoCallback(const sensor_msgs::ImageConstPtr& left,
@@ -192,12 +225,14 @@ void StereoSlamNodelet::StereoCallback(const sensor_msgs::ImageConstPtr& left,
     p.frame.left = ImageToMono8(*left);
     p.frame.right = ImageToMono8(*right);
   } catch (const InputError& e) {
-    NODELET_WARN_THROTTLE(5.0, "pl_slam: stereo pair at %.3f ignored: %s", left->header.stamp.toSec(), e.what());
+    NODELET_WARN_THROTTLE(5.0, "pl_slam: stereo pair at %.3f ignored: %s",
+                          left->header.stamp.toSec(), e.what());
     return;
   }
   if (p.frame.left.size() != p.frame.right.size()) {
     NODELET_WARN_THROTTLE(5.0, "pl_slam: stereo pair ignored: left %dx%d and right %dx%d differ",
-                          p.frame.left.cols, p.frame.left.rows, p.frame.right.cols, p.frame.right.rows);
+                          p.frame.left.cols, p.frame.left.rows, p.frame.right.cols,
+                          p.frame.right.rows);
     return;
   }
   p.frame.stamp_ns = ToNanoseconds(left->header.stamp);
@@ -222,7 +257,8 @@ void StereoSlamNodelet::WorkerLoop() {
     }
     std::lock_guard<std::mutex> lock(system_mutex_);
     if (!system_ || p.camera.width != camera_.width || p.camera.height != camera_.height ||
-        std::abs(p.camera.fx - camera_.fx) > 1e-6 || std::abs(p.camera.baseline - camera_.baseline) > 1e-9) {
+        std::abs(p.camera.fx - camera_.fx) > 1e-6 ||
+        std::abs(p.camera.baseline - camera_.baseline) > 1e-9) {
       if (system_) NODELET_WARN("pl_slam: camera_info changed; starting a new map");
       try {
         system_ = std::make_unique<SlamSystem>(p.camera, options_.system);
@@ -256,12 +292,15 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
   }
   ++frames_processed_;
   if (!T_base_cam_) {
-    const std::string cam_frame = options_.camera_frame.empty() ? header.frame_id : options_.camera_frame;
+    const std::string cam_frame =
+        options_.camera_frame.empty() ? header.frame_id : options_.camera_frame;
     try {
-      const auto tf = tf_buffer_->lookupTransform(options_.base_frame, cam_frame, ros::Time(0), ros::Duration(0.05));
+      const auto tf = tf_buffer_->lookupTransform(options_.base_frame, cam_frame, ros::Time(0),
+                                                  ros::Duration(0.05));
       T_base_cam_ = SE3(tf2::transformToEigen(tf).matrix().eval().block<3, 3>(0, 0).eval(),
                         tf2::transformToEigen(tf).translation());
-      NODELET_INFO("pl_slam: camera mounting %s -> %s taken from TF", options_.base_frame.c_str(), cam_frame.c_str());
+      NODELET_INFO("pl_slam: camera mounting %s -> %s taken from TF", options_.base_frame.c_str(),
+                   cam_frame.c_str());
     } catch (const tf2::TransformException&) {
       T_base_cam_ = SE3();
       NODELET_INFO("pl_slam: no TF %s -> %s; the camera frame is taken as the base frame",
@@ -330,7 +369,8 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
 bool StereoSlamNodelet::OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
                                          pl_slam::SaveTrajectory::Response& res) {
   try {
-    const TrajectoryFormat format = req.format.empty() ? TrajectoryFormat::kTum : ParseTrajectoryFormat(req.format);
+    const TrajectoryFormat format =
+        req.format.empty() ? TrajectoryFormat::kTum : ParseTrajectoryFormat(req.format);
     if (req.path.empty()) throw InputError("path is empty");
     Trajectory traj;
     uint32_t processed = 0;
@@ -342,8 +382,9 @@ bool StereoSlamNodelet::OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
     WriteTrajectory(req.path, traj, format);
     res.success = true;
     res.poses = static_cast<uint32_t>(traj.size());
-    res.message = "wrote " + std::to_string(traj.size()) + " poses to " + req.path + " (frames processed " +
-                  std::to_string(processed) + ", dropped " + std::to_string(dropped_.load()) + ")";
+    res.message = "wrote " + std::to_string(traj.size()) + " poses to " + req.path +
+                  " (frames processed " + std::to_string(processed) + ", dropped " +
+                  std::to_string(dropped_.load()) + ")";
     NODELET_INFO("pl_slam: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;

@@ -12,9 +12,12 @@ namespace pl_slam {
 
 const char* TrackingStateName(TrackingState state) {
   switch (state) {
-    case TrackingState::kNotInitialized: return "NOT_INITIALIZED";
-    case TrackingState::kTracking: return "TRACKING";
-    case TrackingState::kLost: return "LOST";
+    case TrackingState::kNotInitialized:
+      return "NOT_INITIALIZED";
+    case TrackingState::kTracking:
+      return "TRACKING";
+    case TrackingState::kLost:
+      return "LOST";
   }
   return "UNKNOWN";
 }
@@ -76,10 +79,14 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
 
   const cv::Size expected(s.camera.width, s.camera.height);
   std::string bad;
-  if (frame.left.empty() || frame.right.empty()) bad = "empty image";
-  else if (frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1) bad = "images must be 8-bit single channel";
-  else if (frame.left.size() != frame.right.size()) bad = "left and right image sizes differ";
-  else if (frame.left.size() != expected) bad = "image size differs from the calibration";
+  if (frame.left.empty() || frame.right.empty())
+    bad = "empty image";
+  else if (frame.left.type() != CV_8UC1 || frame.right.type() != CV_8UC1)
+    bad = "images must be 8-bit single channel";
+  else if (frame.left.size() != frame.right.size())
+    bad = "left and right image sizes differ";
+  else if (frame.left.size() != expected)
+    bad = "image size differs from the calibration";
   if (!bad.empty()) {
     PL_LOG_WARN("frame " << frame.index << ": " << bad << "; frame skipped, tracking lost");
     if (s.state != TrackingState::kNotInitialized) s.state = TrackingState::kLost;
@@ -92,8 +99,10 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   const TrackerResult r = s.tracker->Track(frame);
   const TrackingState previous = s.state;
   s.state = static_cast<TrackingState>(r.state);
-  if (!r.warning.empty() && (r.state == TrackerState::kLost && previous == TrackingState::kTracking)) {
-    PL_LOG_WARN("frame " << frame.index << ": tracking lost (" << r.warning << "); restarting from the last pose");
+  if (!r.warning.empty() &&
+      (r.state == TrackerState::kLost && previous == TrackingState::kTracking)) {
+    PL_LOG_WARN("frame " << frame.index << ": tracking lost (" << r.warning
+                         << "); restarting from the last pose");
   } else if (!r.warning.empty() && r.state != TrackerState::kTracking) {
     PL_LOG_DEBUG("frame " << frame.index << ": " << r.warning);
   } else if (r.state == TrackerState::kTracking && previous == TrackingState::kLost) {

@@ -11,12 +11,16 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   TrackerOptions& tr = options->tracker;
   t.Add(
       "tracker.mode", [&tr](const std::string& v) { tr.mode = ParseFeatureMode(v); },
-      [&tr] { return std::string(FeatureModeName(tr.mode)); }, "features for tracking: points, lines or points_lines");
+      [&tr] { return std::string(FeatureModeName(tr.mode)); },
+      "features for tracking: points, lines or points_lines");
   t.Add("tracker.parallel", &tr.parallel, "process the right image in a second thread");
   t.Add("tracker.min_inliers", &tr.min_inliers, "fewer point + line inliers: tracking lost");
-  t.Add("tracker.max_translation", &tr.max_translation, "largest accepted frame-to-frame translation, m");
-  t.Add("tracker.max_rotation_deg", &tr.max_rotation_deg, "largest accepted frame-to-frame rotation, deg");
-  t.Add("tracker.line_weight", &tr.line_weight, "information of a line residual relative to a point's");
+  t.Add("tracker.max_translation", &tr.max_translation,
+        "largest accepted frame-to-frame translation, m");
+  t.Add("tracker.max_rotation_deg", &tr.max_rotation_deg,
+        "largest accepted frame-to-frame rotation, deg");
+  t.Add("tracker.line_weight", &tr.line_weight,
+        "information of a line residual relative to a point's");
 
   PointDetectorOptions& p = tr.points;
   t.Add("tracker.points.max_points", &p.max_points, "ORB keypoints kept per image");
@@ -25,75 +29,109 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.points.levels", &p.levels, "ORB pyramid levels");
   t.Add("tracker.points.scale_factor", &p.scale_factor, "ORB pyramid scale step");
   t.Add("tracker.points.fast_threshold", &p.fast_threshold, "FAST corner threshold");
-  t.Add("tracker.points.oversample", &p.oversample, "candidates per kept keypoint before bucketing");
+  t.Add("tracker.points.oversample", &p.oversample,
+        "candidates per kept keypoint before bucketing");
 
   PointMatchingOptions& pm = tr.point_matching;
-  t.Add("tracker.point_matching.max_distance", &pm.max_distance, "largest Hamming distance accepted");
-  t.Add("tracker.point_matching.stereo_ratio", &pm.stereo_ratio, "stereo ratio test: best < ratio * second");
-  t.Add("tracker.point_matching.stereo_row_tolerance", &pm.stereo_row_tolerance, "stereo row tolerance, px at octave 0");
+  t.Add("tracker.point_matching.max_distance", &pm.max_distance,
+        "largest Hamming distance accepted");
+  t.Add("tracker.point_matching.stereo_ratio", &pm.stereo_ratio,
+        "stereo ratio test: best < ratio * second");
+  t.Add("tracker.point_matching.stereo_row_tolerance", &pm.stereo_row_tolerance,
+        "stereo row tolerance, px at octave 0");
   t.Add("tracker.point_matching.min_disparity", &pm.min_disparity, "smallest stereo disparity, px");
   t.Add("tracker.point_matching.max_disparity", &pm.max_disparity, "largest stereo disparity, px");
   t.Add("tracker.point_matching.subpixel", &pm.subpixel, "refine disparities by patch correlation");
   t.Add("tracker.point_matching.f2f_ratio", &pm.f2f_ratio, "frame-to-frame ratio test");
-  t.Add("tracker.point_matching.search_radius", &pm.search_radius, "guided frame-to-frame search radius, px");
+  t.Add("tracker.point_matching.search_radius", &pm.search_radius,
+        "guided frame-to-frame search radius, px");
 
   LineDetectorOptions& l = tr.lines;
   t.Add(
       "tracker.lines.detector",
       [&l](const std::string& v) {
-        if (v == "edge_chain") l.detector = LineDetectorKind::kEdgeChain;
-        else if (v == "lsd") l.detector = LineDetectorKind::kLsd;
-        else throw ConfigError("tracker.lines.detector='" + v + "' must be edge_chain or lsd");
+        if (v == "edge_chain")
+          l.detector = LineDetectorKind::kEdgeChain;
+        else if (v == "lsd")
+          l.detector = LineDetectorKind::kLsd;
+        else
+          throw ConfigError("tracker.lines.detector='" + v + "' must be edge_chain or lsd");
       },
       [&l] { return std::string(l.detector == LineDetectorKind::kLsd ? "lsd" : "edge_chain"); },
       "segment detector: edge_chain (fast) or lsd");
-  t.Add("tracker.lines.min_length_ratio", &l.min_length_ratio, "shortest segment, fraction of min(width, height)");
+  t.Add("tracker.lines.min_length_ratio", &l.min_length_ratio,
+        "shortest segment, fraction of min(width, height)");
   t.Add("tracker.lines.max_lines", &l.max_lines, "longest segments kept per image (0 = all)");
   t.Add("tracker.lines.canny_low", &l.canny_low, "edge chain: Canny low threshold");
   t.Add("tracker.lines.canny_high", &l.canny_high, "edge chain: Canny high threshold");
-  t.Add("tracker.lines.max_fit_distance", &l.max_fit_distance, "edge chain: distance ending a straight run, px");
+  t.Add("tracker.lines.max_fit_distance", &l.max_fit_distance,
+        "edge chain: distance ending a straight run, px");
   t.Add("tracker.lines.merge_collinear", &l.merge_collinear, "edge chain: join collinear pieces");
   t.Add("tracker.lines.merge_max_gap", &l.merge_max_gap, "merge: largest gap along the line, px");
-  t.Add("tracker.lines.merge_max_distance", &l.merge_max_distance, "merge: largest endpoint-to-line distance, px");
-  t.Add("tracker.lines.merge_max_angle_deg", &l.merge_max_angle_deg, "merge: largest direction difference, deg");
+  t.Add("tracker.lines.merge_max_distance", &l.merge_max_distance,
+        "merge: largest endpoint-to-line distance, px");
+  t.Add("tracker.lines.merge_max_angle_deg", &l.merge_max_angle_deg,
+        "merge: largest direction difference, deg");
   t.Add("tracker.lines.lsd_scale", &l.lsd_scale, "LSD: image scale it works at");
 
   LineMatchingOptions& lm = tr.line_matching;
-  t.Add("tracker.line_matching.max_distance", &lm.max_distance, "largest Hamming distance accepted");
+  t.Add("tracker.line_matching.max_distance", &lm.max_distance,
+        "largest Hamming distance accepted");
   t.Add("tracker.line_matching.stereo_ratio", &lm.stereo_ratio, "stereo ratio test");
-  t.Add("tracker.line_matching.stereo_max_angle_deg", &lm.stereo_max_angle_deg, "stereo: largest direction difference, deg");
-  t.Add("tracker.line_matching.stereo_min_length_ratio", &lm.stereo_min_length_ratio, "stereo: shorter / longer length");
-  t.Add("tracker.line_matching.stereo_min_row_overlap", &lm.stereo_min_row_overlap, "stereo: shared rows / rows of the longer");
-  t.Add("tracker.line_matching.min_disparity", &lm.min_disparity, "stereo: smallest endpoint disparity, px");
-  t.Add("tracker.line_matching.max_disparity", &lm.max_disparity, "stereo: largest endpoint disparity, px");
-  t.Add("tracker.line_matching.max_disparity_gradient", &lm.max_disparity_gradient, "stereo: |d_s - d_e| / length");
-  t.Add("tracker.line_matching.min_stereo_angle_deg", &lm.min_stereo_angle_deg, "stereo: flatter segments get no depth, deg");
+  t.Add("tracker.line_matching.stereo_max_angle_deg", &lm.stereo_max_angle_deg,
+        "stereo: largest direction difference, deg");
+  t.Add("tracker.line_matching.stereo_min_length_ratio", &lm.stereo_min_length_ratio,
+        "stereo: shorter / longer length");
+  t.Add("tracker.line_matching.stereo_min_row_overlap", &lm.stereo_min_row_overlap,
+        "stereo: shared rows / rows of the longer");
+  t.Add("tracker.line_matching.min_disparity", &lm.min_disparity,
+        "stereo: smallest endpoint disparity, px");
+  t.Add("tracker.line_matching.max_disparity", &lm.max_disparity,
+        "stereo: largest endpoint disparity, px");
+  t.Add("tracker.line_matching.max_disparity_gradient", &lm.max_disparity_gradient,
+        "stereo: |d_s - d_e| / length");
+  t.Add("tracker.line_matching.min_stereo_angle_deg", &lm.min_stereo_angle_deg,
+        "stereo: flatter segments get no depth, deg");
   t.Add("tracker.line_matching.f2f_ratio", &lm.f2f_ratio, "frame-to-frame ratio test");
-  t.Add("tracker.line_matching.f2f_max_angle_deg", &lm.f2f_max_angle_deg, "frame to frame: largest direction difference, deg");
-  t.Add("tracker.line_matching.f2f_min_length_ratio", &lm.f2f_min_length_ratio, "frame to frame: shorter / longer length");
-  t.Add("tracker.line_matching.f2f_max_line_distance", &lm.f2f_max_line_distance, "guided: predicted endpoints to line, px");
+  t.Add("tracker.line_matching.f2f_max_angle_deg", &lm.f2f_max_angle_deg,
+        "frame to frame: largest direction difference, deg");
+  t.Add("tracker.line_matching.f2f_min_length_ratio", &lm.f2f_min_length_ratio,
+        "frame to frame: shorter / longer length");
+  t.Add("tracker.line_matching.f2f_max_line_distance", &lm.f2f_max_line_distance,
+        "guided: predicted endpoints to line, px");
   t.Add("tracker.line_matching.f2f_max_gap", &lm.f2f_max_gap, "guided: gap between segments, px");
 
   MotionEstimatorOptions& m = tr.motion;
   t.Add("tracker.motion.max_iterations", &m.max_iterations, "Gauss-Newton iterations per step");
   t.Add("tracker.motion.huber_delta_px", &m.huber_delta_px, "Pseudo-Huber scale, px");
-  t.Add("tracker.motion.outlier_chi2", &m.outlier_chi2, "outlier threshold, chi2 (2 dof) x robust variance");
+  t.Add("tracker.motion.outlier_chi2", &m.outlier_chi2,
+        "outlier threshold, chi2 (2 dof) x robust variance");
   t.Add("tracker.motion.outlier_min_px", &m.outlier_min_px, "outlier threshold floor, px");
   t.Add("tracker.motion.outlier_max_px", &m.outlier_max_px, "outlier threshold ceiling, px");
   t.Add("tracker.motion.min_update", &m.min_update, "convergence: smallest update norm");
-  t.Add("tracker.motion.min_relative_cost_change", &m.min_relative_cost_change, "convergence: smallest relative cost change");
-  t.Add("tracker.motion.min_depth", &m.min_depth, "residuals with smaller transformed depth are skipped, m");
-  t.Add("tracker.motion.min_inliers", &m.min_inliers, "fewer inliers after the second step: failure");
-  t.Add("tracker.motion.rank_tolerance", &m.rank_tolerance, "smallest normalised Hessian eigenvalue (observability)");
-  t.Add("tracker.motion.min_sigma_px", &m.min_sigma_px, "floor on the residual sigma scaling the covariance, px");
+  t.Add("tracker.motion.min_relative_cost_change", &m.min_relative_cost_change,
+        "convergence: smallest relative cost change");
+  t.Add("tracker.motion.min_depth", &m.min_depth,
+        "residuals with smaller transformed depth are skipped, m");
+  t.Add("tracker.motion.min_inliers", &m.min_inliers,
+        "fewer inliers after the second step: failure");
+  t.Add("tracker.motion.rank_tolerance", &m.rank_tolerance,
+        "smallest normalised Hessian eigenvalue (observability)");
+  t.Add("tracker.motion.min_sigma_px", &m.min_sigma_px,
+        "floor on the residual sigma scaling the covariance, px");
 
   KeyframeSelectorOptions& k = tr.keyframes;
-  t.Add("tracker.keyframes.entropy_ratio", &k.entropy_ratio, "keyframe when h(kf,cur)/h(kf,kf+1) drops below");
-  t.Add("tracker.keyframes.min_frames", &k.min_frames, "entropy test from this many frames after a keyframe");
-  t.Add("tracker.keyframes.max_frames", &k.max_frames, "keyframe at the latest after this many frames");
+  t.Add("tracker.keyframes.entropy_ratio", &k.entropy_ratio,
+        "keyframe when h(kf,cur)/h(kf,kf+1) drops below");
+  t.Add("tracker.keyframes.min_frames", &k.min_frames,
+        "entropy test from this many frames after a keyframe");
+  t.Add("tracker.keyframes.max_frames", &k.max_frames,
+        "keyframe at the latest after this many frames");
   t.Add("tracker.keyframes.min_inliers", &k.min_inliers, "keyframe when inliers drop below");
-  t.Add("tracker.keyframes.max_translation", &k.max_translation, "keyframe after this translation, m");
-  t.Add("tracker.keyframes.max_rotation_deg", &k.max_rotation_deg, "keyframe after this rotation, deg");
+  t.Add("tracker.keyframes.max_translation", &k.max_translation,
+        "keyframe after this translation, m");
+  t.Add("tracker.keyframes.max_rotation_deg", &k.max_rotation_deg,
+        "keyframe after this rotation, deg");
   return t;
 }
 

@@ -42,7 +42,8 @@ void OptionTable::Add(const std::string& key, double* field, const std::string& 
       [key, field](const std::string& v) {
         char* end = nullptr;
         const double x = std::strtod(v.c_str(), &end);
-        if (v.empty() || *end != '\0' || !std::isfinite(x)) throw ConfigError(key + ": '" + v + "' is not a number");
+        if (v.empty() || *end != '\0' || !std::isfinite(x))
+          throw ConfigError(key + ": '" + v + "' is not a number");
         *field = x;
       },
       [field] { return FormatDouble(*field); }, doc);
@@ -52,15 +53,19 @@ void OptionTable::Add(const std::string& key, bool* field, const std::string& do
   Add(
       key,
       [key, field](const std::string& v) {
-        if (v == "true" || v == "1" || v == "True") *field = true;
-        else if (v == "false" || v == "0" || v == "False") *field = false;
-        else throw ConfigError(key + ": '" + v + "' is not true or false");
+        if (v == "true" || v == "1" || v == "True")
+          *field = true;
+        else if (v == "false" || v == "0" || v == "False")
+          *field = false;
+        else
+          throw ConfigError(key + ": '" + v + "' is not true or false");
       },
       [field] { return std::string(*field ? "true" : "false"); }, doc);
 }
 
 void OptionTable::Add(const std::string& key, std::string* field, const std::string& doc) {
-  Add(key, [field](const std::string& v) { *field = v; }, [field] { return *field; }, doc);
+  Add(
+      key, [field](const std::string& v) { *field = v; }, [field] { return *field; }, doc);
 }
 
 void OptionTable::Add(const std::string& key, std::function<void(const std::string&)> set,
@@ -82,7 +87,8 @@ void OptionTable::Set(const std::string& key, const std::string& value) const {
 
 void OptionTable::SetAssignment(const std::string& assignment) const {
   const auto eq = assignment.find('=');
-  if (eq == std::string::npos || eq == 0) throw ConfigError("'" + assignment + "' is not key=value");
+  if (eq == std::string::npos || eq == 0)
+    throw ConfigError("'" + assignment + "' is not key=value");
   Set(assignment.substr(0, eq), assignment.substr(eq + 1));
 }
 
@@ -108,7 +114,8 @@ std::string OptionTable::Describe() const {
 
 namespace {
 
-void Flatten(const YAML::Node& node, const std::string& prefix, const std::string& path, const OptionTable& table) {
+void Flatten(const YAML::Node& node, const std::string& prefix, const std::string& path,
+             const OptionTable& table) {
   if (node.IsMap()) {
     for (const auto& kv : node) {
       const std::string k = kv.first.as<std::string>();
@@ -133,7 +140,8 @@ void LoadYamlOptions(const std::string& path, const OptionTable& table) {
   } catch (const YAML::BadFile&) {
     throw ConfigError(path + ": cannot read the config file");
   } catch (const YAML::Exception& e) {
-    throw ConfigError(path + ": not valid YAML (" + e.msg + " at line " + std::to_string(e.mark.line + 1) + ")");
+    throw ConfigError(path + ": not valid YAML (" + e.msg + " at line " +
+                      std::to_string(e.mark.line + 1) + ")");
   }
   if (root.IsNull()) return;  // an empty file sets nothing
   if (!root.IsMap()) throw ConfigError(path + ": the config must be a map of keys to values");

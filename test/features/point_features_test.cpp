@@ -20,7 +20,8 @@ TEST(PointDetector, KeypointsAreSpreadOverTheGrid) {
   noise(cv::Rect(0, 0, 250, 480)).copyTo(img(cv::Rect(0, 0, 250, 480)));
   // Weak blobs everywhere else, one per cell.
   for (int y = 40; y < 480; y += 80)
-    for (int x = 300; x < 752; x += 94) cv::rectangle(img, cv::Rect(x, y, 12, 12), cv::Scalar(160), cv::FILLED);
+    for (int x = 300; x < 752; x += 94)
+      cv::rectangle(img, cv::Rect(x, y, 12, 12), cv::Scalar(160), cv::FILLED);
   PointDetectorOptions opt;
   opt.max_points = 300;
   PointDetector det(opt);
@@ -37,11 +38,13 @@ TEST(PointDetector, KeypointsAreSpreadOverTheGrid) {
 
 TEST(PointDetector, BucketKeepsQuotaPerCellAndBudget) {
   std::vector<cv::KeyPoint> kps;
-  for (int i = 0; i < 200; ++i) kps.emplace_back(cv::Point2f(10.f + i * 0.1f, 10.f), 7.f, -1.f, 100.f + i);  // cell 0
-  kps.emplace_back(cv::Point2f(90.f, 90.f), 7.f, -1.f, 1.f);                                                // cell 3, weak
+  for (int i = 0; i < 200; ++i)
+    kps.emplace_back(cv::Point2f(10.f + i * 0.1f, 10.f), 7.f, -1.f, 100.f + i);  // cell 0
+  kps.emplace_back(cv::Point2f(90.f, 90.f), 7.f, -1.f, 1.f);                     // cell 3, weak
   const auto kept = BucketKeypoints(kps, cv::Size(100, 100), 2, 2, 40);
   EXPECT_EQ(kept.size(), 40u);
-  EXPECT_TRUE(std::any_of(kept.begin(), kept.end(), [](const cv::KeyPoint& k) { return k.response == 1.f; }));
+  EXPECT_TRUE(std::any_of(kept.begin(), kept.end(),
+                          [](const cv::KeyPoint& k) { return k.response == 1.f; }));
 }
 
 TEST(PointDetector, EmptyAndUniformImagesGiveNothing) {

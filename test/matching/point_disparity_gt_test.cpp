@@ -44,7 +44,8 @@ TEST(PointDisparityGroundTruth, Kitti2015PairMatchesTheGroundTruth) {
     std::vector<double> err, abs_err;
     for (const auto& p : pts) {
       if (!p.has_depth) continue;
-      const uint16_t g = gt.at<uint16_t>(static_cast<int>(std::lround(p.uv.y())), static_cast<int>(std::lround(p.uv.x())));
+      const uint16_t g = gt.at<uint16_t>(static_cast<int>(std::lround(p.uv.y())),
+                                         static_cast<int>(std::lround(p.uv.x())));
       if (g == 0) continue;  // no ground truth there
       err.push_back(p.disparity - g / 256.0);
       abs_err.push_back(std::abs(err.back()));
@@ -53,11 +54,16 @@ TEST(PointDisparityGroundTruth, Kitti2015PairMatchesTheGroundTruth) {
     std::sort(err.begin(), err.end());
     std::sort(abs_err.begin(), abs_err.end());
     const double bias = err[err.size() / 2];
-    const double within1 = static_cast<double>(std::lower_bound(abs_err.begin(), abs_err.end(), 1.0) - abs_err.begin()) / abs_err.size();
-    std::cout << "subpixel=" << subpixel << ": " << err.size() << " matches with ground truth, median signed error "
-              << bias << " px, median |error| " << abs_err[abs_err.size() / 2] << " px, within 1 px "
+    const double within1 =
+        static_cast<double>(std::lower_bound(abs_err.begin(), abs_err.end(), 1.0) -
+                            abs_err.begin()) /
+        abs_err.size();
+    std::cout << "subpixel=" << subpixel << ": " << err.size()
+              << " matches with ground truth, median signed error " << bias
+              << " px, median |error| " << abs_err[abs_err.size() / 2] << " px, within 1 px "
               << 100.0 * within1 << "%, within 3 px "
-              << 100.0 * (std::lower_bound(abs_err.begin(), abs_err.end(), 3.0) - abs_err.begin()) / abs_err.size()
+              << 100.0 * (std::lower_bound(abs_err.begin(), abs_err.end(), 3.0) - abs_err.begin()) /
+                     abs_err.size()
               << "%\n";
     // Precision of the matches: no gross mismatch, most within a pixel. The median signed error
     // (-0.53 px here, not seen on the synthetic scenes) is printed, not asserted: its cause is

@@ -14,7 +14,8 @@ struct Detected {
   int stereo = 0;
 };
 
-Detected DetectAndMatch(const sim::SyntheticSequence& seq, int index, const PointMatchingOptions& mo) {
+Detected DetectAndMatch(const sim::SyntheticSequence& seq, int index,
+                        const PointMatchingOptions& mo) {
   const StereoFrame f = seq.Render(index);
   PointDetector det{PointDetectorOptions()};
   std::vector<cv::KeyPoint> kl, kr;
@@ -46,7 +47,8 @@ TEST(PointMatching, StereoDepthAgreesWithTheRenderedDepth) {
     std::vector<double> disp_err;
     for (const auto& p : d.points) {
       if (!p.has_depth) continue;
-      const float z = depth.at<float>(static_cast<int>(std::lround(p.uv.y())), static_cast<int>(std::lround(p.uv.x())));
+      const float z = depth.at<float>(static_cast<int>(std::lround(p.uv.y())),
+                                      static_cast<int>(std::lround(p.uv.x())));
       if (z <= 0.f) continue;
       ++total;
       const double true_disp = seq.camera().DisparityFromDepth(z);
@@ -58,9 +60,11 @@ TEST(PointMatching, StereoDepthAgreesWithTheRenderedDepth) {
     // Precision of the matches: nearly all within a pixel of the true disparity.
     // Coarse ORB positions are quantised by the pyramid level; the refined ones must be tight.
     EXPECT_GT(static_cast<double>(good) / total, subpixel ? 0.97 : 0.85) << "subpixel=" << subpixel;
-    if (subpixel) EXPECT_LT(median, 0.3) << "sub-pixel refinement should give < 0.3 px median error";
-    std::cout << "subpixel=" << subpixel << ": " << d.stereo << " stereo matches, median |disparity error| "
-              << median << " px, within 1 px " << 100.0 * good / total << "%\n";
+    if (subpixel)
+      EXPECT_LT(median, 0.3) << "sub-pixel refinement should give < 0.3 px median error";
+    std::cout << "subpixel=" << subpixel << ": " << d.stereo
+              << " stereo matches, median |disparity error| " << median << " px, within 1 px "
+              << 100.0 * good / total << "%\n";
   }
 }
 
@@ -71,8 +75,8 @@ TEST(PointMatching, FrameToFrameMatchesAreConsistentWithTheTruePose) {
   const SE3 T_cur_prev = seq.ground_truth()[21].T_w_c.inverse() * seq.ground_truth()[20].T_w_c;
   for (bool guided : {false, true}) {
     const SE3 prediction = SE3();  // a poor prediction (identity) must still work within the radius
-    const auto matches = MatchPointsFrameToFrame(seq.camera(), a.points, a.desc, b.points, b.desc, mo,
-                                                 guided ? &prediction : nullptr);
+    const auto matches = MatchPointsFrameToFrame(seq.camera(), a.points, a.desc, b.points, b.desc,
+                                                 mo, guided ? &prediction : nullptr);
     ASSERT_GT(matches.size(), 150u) << "guided=" << guided;
     int correct = 0;
     for (const auto& [i, j] : matches) {

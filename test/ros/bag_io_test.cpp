@@ -19,8 +19,8 @@ namespace fs = std::filesystem;
 class TempDir {
  public:
   TempDir() {
-    path_ = fs::temp_directory_path() / ("pl_slam_bag_test_" + std::to_string(::getpid()) + "_" +
-                                         std::to_string(counter_++));
+    path_ = fs::temp_directory_path() /
+            ("pl_slam_bag_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
     fs::create_directories(path_);
   }
   ~TempDir() { fs::remove_all(path_); }
@@ -169,7 +169,7 @@ TEST(Conversions, SupportedEncodingsBecomeMono8) {
   ASSERT_EQ(g.type(), CV_8UC1);
   EXPECT_NEAR(g.at<uint8_t>(0, 0), 76, 1);  // 0.299 * 255
   auto bgr = MakeImage(sensor_msgs::image_encodings::BGR8, 3, 1);
-  bgr.data[0] = 255;  // pure blue pixel
+  bgr.data[0] = 255;                                        // pure blue pixel
   EXPECT_NEAR(ImageToMono8(bgr).at<uint8_t>(0, 0), 29, 1);  // 0.114 * 255
   auto m16 = MakeImage(sensor_msgs::image_encodings::MONO16, 1, 2);
   m16.data[0] = 0x00;

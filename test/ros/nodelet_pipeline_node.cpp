@@ -53,8 +53,12 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   bool tf_ok = false;
   while (ros::ok() && (ros::WallTime::now() - start).toSec() < 240.0) {
     ros::spinOnce();
-    if (status_count != last_seen) { last_seen = status_count; last_change = ros::WallTime::now(); }
-    if (!tf_ok && status_count > 0) tf_ok = tf_buffer.canTransform("map", "base_link", ros::Time(0));
+    if (status_count != last_seen) {
+      last_seen = status_count;
+      last_change = ros::WallTime::now();
+    }
+    if (!tf_ok && status_count > 0)
+      tf_ok = tf_buffer.canTransform("map", "base_link", ros::Time(0));
     if (status_count >= frames) break;
     if (status_count > 0 && (ros::WallTime::now() - last_change).toSec() > 8.0) break;
     ros::WallDuration(0.01).sleep();
@@ -63,7 +67,8 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   ros::spinOnce();
 
   EXPECT_GE(status_count + last_status.frames_dropped, frames) << "status messages missing";
-  EXPECT_GE(static_cast<double>(odom_count), 0.95 * frames) << "odometry for under 95% of the frames";
+  EXPECT_GE(static_cast<double>(odom_count), 0.95 * frames)
+      << "odometry for under 95% of the frames";
   EXPECT_GE(static_cast<double>(tracking_count), 0.95 * frames);
   EXPECT_EQ(last_status.state_name, "TRACKING");
   EXPECT_GT(last_status.points_detected, 100u);
@@ -71,7 +76,8 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
 
   // Save the trajectory through the service and score it against the bag's ground truth.
   const std::string path = (std::filesystem::temp_directory_path() /
-                            ("pl_slam_rostest_" + std::to_string(::getpid()) + ".tum")).string();
+                            ("pl_slam_rostest_" + std::to_string(::getpid()) + ".tum"))
+                               .string();
   pl_slam::SaveTrajectory save;
   save.request.path = path;
   save.request.format = "tum";
@@ -84,10 +90,12 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   for (const auto& p : gt) frame_times.push_back(p.t);
   const auto result = pl_slam::eval::EvaluateTrajectory(est, gt, frame_times);
   EXPECT_GE(result.coverage.ratio, 0.95);
-  EXPECT_LT(result.ate.translation.rmse, max_ate) << "ATE RMSE " << result.ate.translation.rmse << " m";
-  std::cout << "[nodelet_pipeline] frames " << frames << ", status " << status_count << ", odometry "
-            << odom_count << ", dropped " << last_status.frames_dropped << ", ATE RMSE "
-            << result.ate.translation.rmse << " m, coverage " << result.coverage.ratio << std::endl;
+  EXPECT_LT(result.ate.translation.rmse, max_ate)
+      << "ATE RMSE " << result.ate.translation.rmse << " m";
+  std::cout << "[nodelet_pipeline] frames " << frames << ", status " << status_count
+            << ", odometry " << odom_count << ", dropped " << last_status.frames_dropped
+            << ", ATE RMSE " << result.ate.translation.rmse << " m, coverage "
+            << result.coverage.ratio << std::endl;
 
   // A bad path is refused with a message, not a crash.
   save.request.path = "/nonexistent_dir_pl_slam/x.tum";

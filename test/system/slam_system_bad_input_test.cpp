@@ -54,8 +54,12 @@ TEST(SlamSystemBadInput, EmptyUniformMismatchedAndWrongTypeFrames) {
   const cv::Mat small(240, 376, CV_8UC1, cv::Scalar(128));
   const cv::Mat color(480, 752, CV_8UC3, cv::Scalar(1, 2, 3));
   int i = 0;
-  for (const auto& [l, r] : std::vector<std::pair<cv::Mat, cv::Mat>>{
-           {cv::Mat(), cv::Mat()}, {gray, gray}, {black, black}, {gray, small}, {small, small}, {color, color}}) {
+  for (const auto& [l, r] : std::vector<std::pair<cv::Mat, cv::Mat>>{{cv::Mat(), cv::Mat()},
+                                                                     {gray, gray},
+                                                                     {black, black},
+                                                                     {gray, small},
+                                                                     {small, small},
+                                                                     {color, color}}) {
     const FrameResult res = sys.Process(Frame(l, r, i++));
     EXPECT_NE(res.state, TrackingState::kTracking);
     EXPECT_FALSE(res.pose_valid);
@@ -108,7 +112,8 @@ TEST(SystemOptionTable, EveryKeyRoundTripsAndDefaultsAreValid) {
   }
   EXPECT_EQ(options.Validate(), "");
   table.Set("tracker.points.max_points", "3");
-  EXPECT_NE(options.Validate().find("tracker.points.max_points"), std::string::npos) << options.Validate();
+  EXPECT_NE(options.Validate().find("tracker.points.max_points"), std::string::npos)
+      << options.Validate();
   EXPECT_THROW(table.Set("tracker.mode", "corners"), ConfigError);
 }
 

@@ -41,8 +41,8 @@ RunResult RunSequence(sim::SceneKind scene, int frames, FeatureMode mode) {
 
 TEST(SlamSystemSynthetic, RoomIsTrackedAccuratelyWithPointsAndLines) {
   const RunResult r = RunSequence(sim::SceneKind::kRoom, 120, FeatureMode::kPointsAndLines);
-  std::cout << "room 120 frames: ATE " << r.eval.ate.translation.rmse << " m, lost " << r.lost << ", keyframes "
-            << r.keyframes << "\n";
+  std::cout << "room 120 frames: ATE " << r.eval.ate.translation.rmse << " m, lost " << r.lost
+            << ", keyframes " << r.keyframes << "\n";
   EXPECT_EQ(r.lost, 0);
   EXPECT_DOUBLE_EQ(r.eval.coverage.ratio, 1.0);
   // Measured 3 mm over ~3 m walked; 15 mm catches a regression without flaking on noise.
@@ -54,8 +54,8 @@ TEST(SlamSystemSynthetic, RoomIsTrackedAccuratelyWithPointsAndLines) {
 
 TEST(SlamSystemSynthetic, LowTextureCorridorNeedsLines) {
   const RunResult lines = RunSequence(sim::SceneKind::kCorridor, 100, FeatureMode::kPointsAndLines);
-  std::cout << "corridor 100 frames, points+lines: ATE " << lines.eval.ate.translation.rmse << " m, lost "
-            << lines.lost << "\n";
+  std::cout << "corridor 100 frames, points+lines: ATE " << lines.eval.ate.translation.rmse
+            << " m, lost " << lines.lost << "\n";
   EXPECT_EQ(lines.lost, 0);
   // Measured 2.6 mm over 5 m of corridor; see docs/BENCHMARKS.md for points only.
   EXPECT_LT(lines.eval.ate.translation.rmse, 0.015);

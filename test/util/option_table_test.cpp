@@ -60,7 +60,8 @@ TEST(OptionTable, RefusesUnknownKeysAndMalformedValuesNamingThem) {
 }
 
 TEST(OptionTable, LoadsNestedYamlAndReportsFileAndKey) {
-  const auto dir = std::filesystem::temp_directory_path() / ("pl_slam_opt_" + std::to_string(::getpid()));
+  const auto dir =
+      std::filesystem::temp_directory_path() / ("pl_slam_opt_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
   const std::string good = (dir / "good.yaml").string(), bad = (dir / "bad.yaml").string(),
                     broken = (dir / "broken.yaml").string();

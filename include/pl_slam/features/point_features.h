@@ -12,14 +12,14 @@ namespace pl_slam {
 
 /// Options of the point detector.
 struct PointDetectorOptions {
-  int max_points = 800;          ///< keypoints kept per image after bucketing
-  int grid_cols = 8;             ///< bucketing grid columns
-  int grid_rows = 6;             ///< bucketing grid rows
-  int levels = 4;                ///< ORB pyramid levels
-  double scale_factor = 1.2;     ///< ORB pyramid scale step
-  int fast_threshold = 20;       ///< FAST corner threshold
-  double oversample = 8.0;       ///< candidates per kept keypoint before bucketing (large, so
-                                 ///< texture clusters cannot crowd weak corners out of the pool)
+  int max_points = 800;       ///< keypoints kept per image after bucketing
+  int grid_cols = 8;          ///< bucketing grid columns
+  int grid_rows = 6;          ///< bucketing grid rows
+  int levels = 4;             ///< ORB pyramid levels
+  double scale_factor = 1.2;  ///< ORB pyramid scale step
+  int fast_threshold = 20;    ///< FAST corner threshold
+  double oversample = 8.0;    ///< candidates per kept keypoint before bucketing (large, so
+                              ///< texture clusters cannot crowd weak corners out of the pool)
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
   std::string Validate() const;
@@ -27,8 +27,9 @@ struct PointDetectorOptions {
 
 /// Detects ORB keypoints and descriptors: a pool of oversample x max_points FAST/Harris
 /// candidates (ranked per pyramid level by OpenCV), then grid bucketing. A region with more
-/// corners than the whole pool (e.g. per-pixel noise) can still crowd out weak ones elsewhere. Detect() is const and may run concurrently from
-/// several threads (each call uses its own OpenCV detector).
+/// corners than the whole pool (e.g. per-pixel noise) can still crowd out weak ones elsewhere.
+/// Detect() is const and may run concurrently from several threads (each call uses its own OpenCV
+/// detector).
 class PointDetector {
  public:
   /// Throws ConfigError on invalid options.
@@ -36,7 +37,8 @@ class PointDetector {
 
   /// Detects up to max_points keypoints spread over the grid, with descriptors (row i =
   /// keypoint i). An empty or featureless image gives zero keypoints.
-  void Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keypoints, cv::Mat* descriptors) const;
+  void Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keypoints,
+              cv::Mat* descriptors) const;
 
   const PointDetectorOptions& options() const { return options_; }
 
@@ -46,7 +48,8 @@ class PointDetector {
 
 /// Keeps the strongest keypoints of each grid cell so that texture clusters cannot take all
 /// of `max_keep`: per-cell quota first, then the leftover budget by global response.
-std::vector<cv::KeyPoint> BucketKeypoints(const std::vector<cv::KeyPoint>& keypoints, cv::Size image_size,
-                                          int grid_cols, int grid_rows, int max_keep);
+std::vector<cv::KeyPoint> BucketKeypoints(const std::vector<cv::KeyPoint>& keypoints,
+                                          cv::Size image_size, int grid_cols, int grid_rows,
+                                          int max_keep);
 
 }  // namespace pl_slam

@@ -28,10 +28,10 @@ struct LineFeature {
   /// Infinite line through s and e, l = (s,1) x (e,1) scaled so l(0)^2 + l(1)^2 = 1: then
   /// l . (u, v, 1) is the signed pixel distance of (u, v) to the line.
   Eigen::Vector3d l = Eigen::Vector3d::Zero();
-  double angle = 0.0;   ///< direction atan2(e - s), radians
-  double length = 0.0;  ///< pixels
-  int octave = 0;       ///< pyramid level it was detected at
-  bool has_depth = false;                        ///< stereo match found, both endpoints triangulated
+  double angle = 0.0;      ///< direction atan2(e - s), radians
+  double length = 0.0;     ///< pixels
+  int octave = 0;          ///< pyramid level it was detected at
+  bool has_depth = false;  ///< stereo match found, both endpoints triangulated
   Eigen::Vector3d P_c = Eigen::Vector3d::Zero();  ///< 3D start point, left camera frame
   Eigen::Vector3d Q_c = Eigen::Vector3d::Zero();  ///< 3D end point, left camera frame
 };
@@ -44,7 +44,7 @@ struct StereoFeatures {
   PointFeatures points;
   cv::Mat point_descriptors;  ///< CV_8U, 32 bytes per row (ORB)
   LineFeatures lines;
-  cv::Mat line_descriptors;   ///< CV_8U, 32 bytes per row (LBD)
+  cv::Mat line_descriptors;  ///< CV_8U, 32 bytes per row (LBD)
 };
 
 }  // namespace pl_slam

@@ -38,7 +38,8 @@ class SE3 {
   /// From a rotation (normalised here) and a translation.
   SE3(const Eigen::Quaterniond& q, const Eigen::Vector3d& t) : q_(q.normalized()), t_(t) {}
   /// From a rotation matrix (re-orthonormalised through the quaternion) and a translation.
-  SE3(const Eigen::Matrix3d& R, const Eigen::Vector3d& t) : q_(Eigen::Quaterniond(R).normalized()), t_(t) {}
+  SE3(const Eigen::Matrix3d& R, const Eigen::Vector3d& t)
+      : q_(Eigen::Quaterniond(R).normalized()), t_(t) {}
 
   /// From a homogeneous 4x4 matrix (last row ignored).
   static SE3 FromMatrix(const Eigen::Matrix4d& T);

@@ -17,14 +17,15 @@ namespace pl_slam {
 
 /// Options of point matching.
 struct PointMatchingOptions {
-  int max_distance = 64;              ///< largest accepted Hamming distance (of 256 bits)
-  double stereo_ratio = 0.8;          ///< stereo: best < ratio * second best
-  double stereo_row_tolerance = 2.0;  ///< stereo: |v_l - v_r| in pixels at octave 0 (scaled per octave)
-  double min_disparity = 0.5;         ///< stereo: smaller disparities are rejected (pixels)
-  double max_disparity = 200.0;       ///< stereo: largest disparity searched (pixels)
-  bool subpixel = true;               ///< stereo: refine the disparity by patch correlation
-  double f2f_ratio = 0.8;             ///< frame to frame: best < ratio * second best
-  double search_radius = 30.0;        ///< frame to frame with a prediction: radius, pixels
+  int max_distance = 64;      ///< largest accepted Hamming distance (of 256 bits)
+  double stereo_ratio = 0.8;  ///< stereo: best < ratio * second best
+  double stereo_row_tolerance =
+      2.0;                       ///< stereo: |v_l - v_r| in pixels at octave 0 (scaled per octave)
+  double min_disparity = 0.5;    ///< stereo: smaller disparities are rejected (pixels)
+  double max_disparity = 200.0;  ///< stereo: largest disparity searched (pixels)
+  bool subpixel = true;          ///< stereo: refine the disparity by patch correlation
+  double f2f_ratio = 0.8;        ///< frame to frame: best < ratio * second best
+  double search_radius = 30.0;   ///< frame to frame with a prediction: radius, pixels
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
   std::string Validate() const;
@@ -37,19 +38,19 @@ int HammingDistance32(const uint8_t* a, const uint8_t* b);
 /// becomes a PointFeature, with has_depth/disparity/p_c set when it has a mutual-best stereo
 /// match on its epipolar row within the disparity range passing the ratio test. Returns the
 /// number of stereo matches.
-int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image, const cv::Mat& right_image,
-                      const std::vector<cv::KeyPoint>& left_kp, const cv::Mat& left_desc,
-                      const std::vector<cv::KeyPoint>& right_kp, const cv::Mat& right_desc,
-                      const PointMatchingOptions& options, PointFeatures* points);
+int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
+                      const cv::Mat& right_image, const std::vector<cv::KeyPoint>& left_kp,
+                      const cv::Mat& left_desc, const std::vector<cv::KeyPoint>& right_kp,
+                      const cv::Mat& right_desc, const PointMatchingOptions& options,
+                      PointFeatures* points);
 
 /// Frame-to-frame matches (previous index, current index) of previous points that have depth.
 /// With `T_cur_prev` the previous 3D points are projected into the current image and only
 /// current points within search_radius are candidates; without it every current point is.
 /// Matches are mutual best and pass the ratio test.
-std::vector<std::pair<int, int>> MatchPointsFrameToFrame(const StereoCamera& camera,
-                                                         const PointFeatures& prev, const cv::Mat& prev_desc,
-                                                         const PointFeatures& cur, const cv::Mat& cur_desc,
-                                                         const PointMatchingOptions& options,
-                                                         const SE3* T_cur_prev = nullptr);
+std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
+    const StereoCamera& camera, const PointFeatures& prev, const cv::Mat& prev_desc,
+    const PointFeatures& cur, const cv::Mat& cur_desc, const PointMatchingOptions& options,
+    const SE3* T_cur_prev = nullptr);
 
 }  // namespace pl_slam

@@ -18,10 +18,10 @@ namespace ros_layer {
 /// Topic names of a stereo bag. The defaults are the EuRoC bag layout the generator and the
 /// dataset converter write.
 struct BagTopics {
-  std::string left_image = "/cam0/image_raw";     ///< left sensor_msgs/Image
-  std::string right_image = "/cam1/image_raw";    ///< right sensor_msgs/Image
-  std::string left_info = "/cam0/camera_info";    ///< left sensor_msgs/CameraInfo
-  std::string right_info = "/cam1/camera_info";   ///< right sensor_msgs/CameraInfo
+  std::string left_image = "/cam0/image_raw";       ///< left sensor_msgs/Image
+  std::string right_image = "/cam1/image_raw";      ///< right sensor_msgs/Image
+  std::string left_info = "/cam0/camera_info";      ///< left sensor_msgs/CameraInfo
+  std::string right_info = "/cam1/camera_info";     ///< right sensor_msgs/CameraInfo
   std::string ground_truth = "/ground_truth/pose";  ///< geometry_msgs/PoseStamped (optional)
 };
 

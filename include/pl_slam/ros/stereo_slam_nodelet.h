@@ -61,18 +61,23 @@ class StereoSlamNodelet : public nodelet::Nodelet {
  private:
   void onInit() override;
   bool LoadOptions(ros::NodeHandle& pnh);
-  void StereoCallback(const sensor_msgs::ImageConstPtr& left, const sensor_msgs::CameraInfoConstPtr& left_info,
-                      const sensor_msgs::ImageConstPtr& right, const sensor_msgs::CameraInfoConstPtr& right_info);
+  void StereoCallback(const sensor_msgs::ImageConstPtr& left,
+                      const sensor_msgs::CameraInfoConstPtr& left_info,
+                      const sensor_msgs::ImageConstPtr& right,
+                      const sensor_msgs::CameraInfoConstPtr& right_info);
   void WorkerLoop();
   void ProcessOne(const StereoFrame& frame, const std_msgs::Header& header);
   void Publish(const FrameResult& result, const std_msgs::Header& header);
-  bool OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req, pl_slam::SaveTrajectory::Response& res);
+  bool OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
+                        pl_slam::SaveTrajectory::Response& res);
   bool OnReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
 
-  using ExactPolicy = message_filters::sync_policies::ExactTime<
-      sensor_msgs::Image, sensor_msgs::CameraInfo, sensor_msgs::Image, sensor_msgs::CameraInfo>;
-  using ApproxPolicy = message_filters::sync_policies::ApproximateTime<
-      sensor_msgs::Image, sensor_msgs::CameraInfo, sensor_msgs::Image, sensor_msgs::CameraInfo>;
+  using ExactPolicy =
+      message_filters::sync_policies::ExactTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
+                                                sensor_msgs::Image, sensor_msgs::CameraInfo>;
+  using ApproxPolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
+                                                      sensor_msgs::Image, sensor_msgs::CameraInfo>;
 
   NodeletOptions options_;
   std::unique_ptr<image_transport::ImageTransport> it_;

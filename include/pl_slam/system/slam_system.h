@@ -38,9 +38,9 @@ OptionTable MakeOptionTable(SystemOptions* options);
 struct FrameResult {
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
   TrackingState state = TrackingState::kNotInitialized;
-  SE3 T_w_c;                                ///< current left-camera pose (last good when lost)
+  SE3 T_w_c;                                   ///< current left-camera pose (last good when lost)
   Matrix6d covariance = Matrix6d::Identity();  ///< of the frame-to-frame increment [rho; phi]
-  bool pose_valid = false;                  ///< T_w_c is an estimate for this frame
+  bool pose_valid = false;                     ///< T_w_c is an estimate for this frame
   bool is_keyframe = false;
   int points_detected = 0;
   int lines_detected = 0;

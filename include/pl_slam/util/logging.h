@@ -23,13 +23,13 @@ void LogMessage(LogLevel level, const std::string& message);
 
 }  // namespace pl_slam
 
-#define PL_SLAM_LOG_(level, expr)                          \
-  do {                                                     \
-    if (::pl_slam::LogEnabled(level)) {                    \
-      std::ostringstream pl_slam_log_stream_;              \
-      pl_slam_log_stream_ << expr;                         \
+#define PL_SLAM_LOG_(level, expr)                              \
+  do {                                                         \
+    if (::pl_slam::LogEnabled(level)) {                        \
+      std::ostringstream pl_slam_log_stream_;                  \
+      pl_slam_log_stream_ << expr;                             \
       ::pl_slam::LogMessage(level, pl_slam_log_stream_.str()); \
-    }                                                      \
+    }                                                          \
   } while (false)
 
 #define PL_LOG_DEBUG(expr) PL_SLAM_LOG_(::pl_slam::LogLevel::kDebug, expr)
