@@ -295,10 +295,11 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     const std::string cam_frame =
         options_.camera_frame.empty() ? header.frame_id : options_.camera_frame;
     try {
+      // Looked up once, at the first frame, without blocking the worker for long.
       const auto tf = tf_buffer_->lookupTransform(options_.base_frame, cam_frame, ros::Time(0),
                                                   ros::Duration(0.05));
-      T_base_cam_ = SE3(tf2::transformToEigen(tf).matrix().eval().block<3, 3>(0, 0).eval(),
-                        tf2::transformToEigen(tf).translation());
+      const Eigen::Isometry3d T = tf2::transformToEigen(tf);
+      T_base_cam_ = SE3(Eigen::Matrix3d(T.rotation()), Eigen::Vector3d(T.translation()));
       NODELET_INFO("pl_slam: camera mounting %s -> %s taken from TF", options_.base_frame.c_str(),
                    cam_frame.c_str());
     } catch (const tf2::TransformException&) {
