@@ -80,13 +80,5 @@ int Run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const pl_slam::ConfigError& e) {
-    std::cerr << "pl_slam_generate: error: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "pl_slam_generate: error: " << e.what() << "\n";
-    return 1;
-  }
+  return pl_slam::RunTool("pl_slam_generate", [&] { return Run(argc, argv); });
 }

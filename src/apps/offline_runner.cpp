@@ -170,13 +170,5 @@ int Run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const pl_slam::ConfigError& e) {
-    std::cerr << "pl_slam_offline: error: " << e.what() << "\n";
-    return 2;
-  } catch (const std::exception& e) {
-    std::cerr << "pl_slam_offline: error: " << e.what() << "\n";
-    return 1;
-  }
+  return pl_slam::RunTool("pl_slam_offline", [&] { return Run(argc, argv); });
 }

@@ -1,4 +1,5 @@
 #include "pl_slam/sim/synthetic_sequence.h"
+#include "pl_slam/util/validation.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -19,16 +20,6 @@ namespace pl_slam::sim {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// "key=value must be in [lo, hi]" when v is outside (or NaN), else empty.
-template <typename T>
-std::string CheckRange(const char* key, T v, T lo, T hi, bool open_low = false) {
-  const bool ok = open_low ? (v > lo && v <= hi) : (v >= lo && v <= hi);
-  if (ok) return {};
-  std::ostringstream os;
-  os << key << "=" << v << " must be in " << (open_low ? "(" : "[") << lo << ", " << hi << "]";
-  return os.str();
-}
 
 template <typename T>
 T ParseNumber(const std::string& key, const std::string& text) {

@@ -1,4 +1,5 @@
 #include "pl_slam/tracking/keyframe_selector.h"
+#include "pl_slam/util/validation.h"
 
 #include <cmath>
 #include <limits>
@@ -12,16 +13,6 @@ namespace pl_slam {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-
-// "key=value must be in [lo, hi]" when v is outside (or NaN), else empty.
-template <typename T>
-std::string CheckRange(const char* key, T v, T lo, T hi, bool open_low = false) {
-  const bool ok = open_low ? (v > lo && v <= hi) : (v >= lo && v <= hi);
-  if (ok) return {};
-  std::ostringstream os;
-  os << key << "=" << v << " must be in " << (open_low ? "(" : "[") << lo << ", " << hi << "]";
-  return os.str();
-}
 
 }  // namespace
 

@@ -1,4 +1,5 @@
 #include "pl_slam/tracking/motion_estimator.h"
+#include "pl_slam/util/validation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -24,16 +25,6 @@ constexpr double kMinLambda = 1e-12;
 constexpr double kMaxLambda = 1e8;
 // Fewer scalar residuals than unknowns leaves the motion undetermined.
 constexpr int kMinResiduals = 6;
-
-// "key=value must be in [lo, hi]" when v is outside (or NaN), else empty.
-template <typename T>
-std::string CheckRange(const char* key, T v, T lo, T hi, bool open_low = false) {
-  const bool ok = open_low ? (v > lo && v <= hi) : (v >= lo && v <= hi);
-  if (ok) return {};
-  std::ostringstream os;
-  os << key << "=" << v << " must be in " << (open_low ? "(" : "[") << lo << ", " << hi << "]";
-  return os.str();
-}
 
 // Projects X (depth already checked) and, when J is not null, writes d pi(Exp(d) X) / d d.
 inline void ProjectWithJacobian(const StereoCamera& cam, const Eigen::Vector3d& X,

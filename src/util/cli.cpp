@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <iostream>
 
 #include "pl_slam/util/error.h"
 
@@ -62,6 +63,18 @@ double CommandLine::GetDouble(const std::string& name, double fallback) const {
     throw ConfigError("option --" + name + "='" + it->second + "' is not a number");
   }
   return v;
+}
+
+int RunTool(const char* tool, const std::function<int()>& body) {
+  try {
+    return body();
+  } catch (const ConfigError& e) {
+    std::cerr << tool << ": error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << tool << ": error: " << e.what() << "\n";
+    return 1;
+  }
 }
 
 }  // namespace pl_slam

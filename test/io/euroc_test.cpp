@@ -1,5 +1,6 @@
 // EuRoC ASL reading (real MH01 clip and V1_01 calibration), rectification conventions, the
 // writer's round trip, and bad-input errors.
+#include "test_util/temp_dir.h"
 #include "pl_slam/io/euroc.h"
 
 #include <gtest/gtest.h>
@@ -28,23 +29,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
+// Each test's files go in its own folder, named after this file.
+class TempDir : public testing_util::TempDir {
  public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path_ = fs::temp_directory_path() /
-            ("pl_slam_euroc_test_" + std::to_string(::getpid()) + "_" +
-             std::to_string(counter.fetch_add(1)) + "_" + std::to_string(std::random_device{}()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+  TempDir() : testing_util::TempDir("euroc_test") {}
 };
 
 // ../shared/datasets relative to the package root; empty when absent.

@@ -1,5 +1,6 @@
 // KITTI odometry reading (real clip and synthetic fixtures), dataset folder detection, and
 // bad-input errors.
+#include "test_util/temp_dir.h"
 #include "pl_slam/io/kitti.h"
 
 #include <gtest/gtest.h>
@@ -21,23 +22,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
+// Each test's files go in its own folder, named after this file.
+class TempDir : public testing_util::TempDir {
  public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path_ = fs::temp_directory_path() /
-            ("pl_slam_kitti_test_" + std::to_string(::getpid()) + "_" +
-             std::to_string(counter.fetch_add(1)) + "_" + std::to_string(std::random_device{}()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+  TempDir() : testing_util::TempDir("kitti_test") {}
 };
 
 std::string DatasetsDir() {

@@ -1,5 +1,6 @@
 // Trajectory file formats: round trips at full precision, atomic writes, and one-line
 // "file:line: what" errors on malformed content.
+#include "test_util/temp_dir.h"
 #include "pl_slam/io/trajectory.h"
 
 #include <gtest/gtest.h>
@@ -19,24 +20,10 @@ namespace {
 namespace fs = std::filesystem;
 
 // A fresh folder under the system temp directory, removed with everything in it.
-class TempDir {
+// Each test's files go in its own folder, named after this file.
+class TempDir : public testing_util::TempDir {
  public:
-  TempDir() {
-    static std::atomic<int> counter{0};
-    path_ = fs::temp_directory_path() /
-            ("pl_slam_traj_test_" + std::to_string(::getpid()) + "_" +
-             std::to_string(counter.fetch_add(1)) + "_" + std::to_string(std::random_device{}()));
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string File(const std::string& name) const { return (path_ / name).string(); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+  TempDir() : testing_util::TempDir("traj_test") {}
 };
 
 void WriteText(const std::string& path, const std::string& content) {

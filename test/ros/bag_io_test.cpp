@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <sensor_msgs/image_encodings.h>
 
+#include "test_util/temp_dir.h"
 #include "pl_slam/ros/bag_io.h"
 #include "pl_slam/ros/conversions.h"
 #include "pl_slam/util/error.h"
@@ -16,19 +17,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
+// Each test's files go in its own folder, named after this file.
+class TempDir : public testing_util::TempDir {
  public:
-  TempDir() {
-    path_ = fs::temp_directory_path() /
-            ("pl_slam_bag_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
-    fs::create_directories(path_);
-  }
-  ~TempDir() { fs::remove_all(path_); }
-  std::string File(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  static inline int counter_ = 0;
-  fs::path path_;
+  TempDir() : testing_util::TempDir("bag_test") {}
 };
 
 StereoCamera TestCamera() {

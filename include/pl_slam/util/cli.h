@@ -2,6 +2,7 @@
 // "--flag" switches, with a clear message for unknown or malformed options.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <set>
 #include <string>
@@ -29,5 +30,10 @@ class CommandLine {
   std::vector<std::string> positional_;
   std::map<std::string, std::string> values_;
 };
+
+/// Runs a tool's body and turns escaping errors into one line on stderr and an exit code:
+/// ConfigError (bad usage or options) -> "<tool>: error: ..." and 2, any other exception
+/// (bad input files) -> 1. Returns the body's own code otherwise.
+int RunTool(const char* tool, const std::function<int()>& body);
 
 }  // namespace pl_slam
