@@ -81,11 +81,17 @@ geometry_msgs::TransformStamped ToTransformMsg(const SE3& T, const ros::Time& st
 }  // namespace
 
 StereoSlamNodelet::~StereoSlamNodelet() {
+  // Inputs first: no callback may post into the mailbox once teardown has started (the
+  // subscribers are declared before the mailbox, so they would otherwise outlive it).
+  exact_sync_.reset();
+  approx_sync_.reset();
+  left_sub_.unsubscribe();
+  right_sub_.unsubscribe();
+  left_info_sub_.unsubscribe();
+  right_info_sub_.unsubscribe();
   stop_ = true;
   mailbox_cv_.notify_all();
   if (worker_.joinable()) worker_.join();
-  // Subscribers are torn down (by member destruction) after the worker is gone, so no
-  // callback can post into a dead mailbox.
 }
 
 OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
