@@ -74,6 +74,37 @@ bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, doubl
 
 }  // namespace
 
+namespace {
+
+/// Best and second-best distances of one query over its candidates (for the ratio test),
+/// and each candidate's own best query (for the mutual-best check).
+struct CandidateSearch {
+  int best = INT_MAX, second = INT_MAX, best_index = -1;
+
+  /// Offers candidate j at Hamming distance `dist` to query i.
+  void Offer(int i, int j, int dist, std::vector<int>* best_dist_of_candidate,
+             std::vector<int>* best_query_of_candidate) {
+    if (dist < best) {
+      second = best;
+      best = dist;
+      best_index = j;
+    } else if (dist < second) {
+      second = dist;
+    }
+    if (dist < (*best_dist_of_candidate)[j]) {
+      (*best_dist_of_candidate)[j] = dist;
+      (*best_query_of_candidate)[j] = i;
+    }
+  }
+
+  /// True when the best candidate is close enough and clearly better than the second.
+  bool Passes(int max_distance, double ratio) const {
+    return best_index >= 0 && best <= max_distance && (second == INT_MAX || best < ratio * second);
+  }
+};
+
+}  // namespace
+
 int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
                       const cv::Mat& right_image, const std::vector<cv::KeyPoint>& left_kp,
                       const cv::Mat& left_desc, const std::vector<cv::KeyPoint>& right_kp,
@@ -102,31 +133,19 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
     const int r0 = std::max(0, static_cast<int>(std::floor(kl.pt.y - tol)));
     const int r1 = std::min(rows - 1, static_cast<int>(std::ceil(kl.pt.y + tol)));
     const uint8_t* dl = left_desc.ptr<uint8_t>(i);
-    int best = INT_MAX, second = INT_MAX, best_j = -1;
+    CandidateSearch search;
     for (int r = r0; r <= r1; ++r) {
       for (int j : by_row[r]) {
         const cv::KeyPoint& kr = right_kp[j];
         const double d = kl.pt.x - kr.pt.x;
         if (d < options.min_disparity || d > options.max_disparity) continue;
         if (std::abs(kl.octave - kr.octave) > 1) continue;
-        const int dist = HammingDistance32(dl, right_desc.ptr<uint8_t>(j));
-        if (dist < best) {
-          second = best;
-          best = dist;
-          best_j = j;
-        } else if (dist < second) {
-          second = dist;
-        }
-        // The right keypoint's own best over every left candidate: the mutual check.
-        if (dist < best_dist_of_right[j]) {
-          best_dist_of_right[j] = dist;
-          best_left_of_right[j] = i;
-        }
+        search.Offer(i, j, HammingDistance32(dl, right_desc.ptr<uint8_t>(j)), &best_dist_of_right,
+                     &best_left_of_right);
       }
     }
-    if (best_j < 0 || best > options.max_distance) continue;
-    if (second != INT_MAX && best >= options.stereo_ratio * second) continue;
-    match_of_left[i] = best_j;
+    if (!search.Passes(options.max_distance, options.stereo_ratio)) continue;
+    match_of_left[i] = search.best_index;
   }
   int matched = 0;
   for (int i = 0; i < static_cast<int>(left_kp.size()); ++i) {
@@ -173,22 +192,11 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
   for (int i = 0; i < static_cast<int>(prev.size()); ++i) {
     if (!prev[i].has_depth) continue;
     const uint8_t* dp = prev_desc.ptr<uint8_t>(i);
-    int best = INT_MAX, second = INT_MAX, best_j = -1;
+    CandidateSearch search;
     auto consider = [&](int j) {
       if (std::abs(prev[i].octave - cur[j].octave) > 2) return;
-      const int dist = HammingDistance32(dp, cur_desc.ptr<uint8_t>(j));
-      if (dist < best) {
-        second = best;
-        best = dist;
-        best_j = j;
-      } else if (dist < second) {
-        second = dist;
-      }
-      // The current point's own best over every previous candidate: the mutual check.
-      if (dist < best_dist_of_cur[j]) {
-        best_dist_of_cur[j] = dist;
-        best_prev_of_cur[j] = i;
-      }
+      search.Offer(i, j, HammingDistance32(dp, cur_desc.ptr<uint8_t>(j)), &best_dist_of_cur,
+                   &best_prev_of_cur);
     };
     if (T_cur_prev) {
       const Eigen::Vector3d p = (*T_cur_prev) * prev[i].p_c;
@@ -205,9 +213,8 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
     } else {
       for (int j = 0; j < static_cast<int>(cur.size()); ++j) consider(j);
     }
-    if (best_j < 0 || best > options.max_distance) continue;
-    if (second != INT_MAX && best >= options.f2f_ratio * second) continue;
-    match_of_prev[i] = best_j;
+    if (!search.Passes(options.max_distance, options.f2f_ratio)) continue;
+    match_of_prev[i] = search.best_index;
   }
   for (int i = 0; i < static_cast<int>(prev.size()); ++i) {
     const int j = match_of_prev[i];

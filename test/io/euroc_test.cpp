@@ -1,5 +1,6 @@
 // EuRoC ASL reading (real MH01 clip and V1_01 calibration), rectification conventions, the
 // writer's round trip, and bad-input errors.
+#include "test_util/datasets.h"
 #include "test_util/temp_dir.h"
 #include "pl_slam/io/euroc.h"
 
@@ -28,26 +29,14 @@ namespace pl_slam {
 namespace {
 
 namespace fs = std::filesystem;
+using testing_util::DatasetsDir;
+using testing_util::WriteText;
 
 // Each test's files go in its own folder, named after this file.
 class TempDir : public testing_util::TempDir {
  public:
   TempDir() : testing_util::TempDir("euroc_test") {}
 };
-
-// ../shared/datasets relative to the package root; empty when absent.
-std::string DatasetsDir() {
-  for (const std::string base : {std::string(PL_SLAM_SOURCE_DIR) + "/../shared/datasets",
-                                 std::string("../shared/datasets")}) {
-    if (fs::is_directory(base)) return base;
-  }
-  return "";
-}
-
-void WriteText(const fs::path& path, const std::string& content) {
-  std::ofstream out(path, std::ios::binary);
-  out << content;
-}
 
 std::string ReadText(const fs::path& path) { return text::ReadFile(path.string()); }
 

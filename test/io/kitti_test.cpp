@@ -1,5 +1,6 @@
 // KITTI odometry reading (real clip and synthetic fixtures), dataset folder detection, and
 // bad-input errors.
+#include "test_util/datasets.h"
 #include "test_util/temp_dir.h"
 #include "pl_slam/io/kitti.h"
 
@@ -21,25 +22,14 @@ namespace pl_slam {
 namespace {
 
 namespace fs = std::filesystem;
+using testing_util::DatasetsDir;
+using testing_util::WriteText;
 
 // Each test's files go in its own folder, named after this file.
 class TempDir : public testing_util::TempDir {
  public:
   TempDir() : testing_util::TempDir("kitti_test") {}
 };
-
-std::string DatasetsDir() {
-  for (const std::string base : {std::string(PL_SLAM_SOURCE_DIR) + "/../shared/datasets",
-                                 std::string("../shared/datasets")}) {
-    if (fs::is_directory(base)) return base;
-  }
-  return "";
-}
-
-void WriteText(const fs::path& path, const std::string& content) {
-  std::ofstream out(path, std::ios::binary);
-  out << content;
-}
 
 template <typename Fn>
 void ExpectInputError(Fn fn, std::initializer_list<std::string> parts) {

@@ -1,5 +1,6 @@
 // Trajectory file formats: round trips at full precision, atomic writes, and one-line
 // "file:line: what" errors on malformed content.
+#include "test_util/datasets.h"
 #include "test_util/temp_dir.h"
 #include "pl_slam/io/trajectory.h"
 
@@ -18,6 +19,8 @@ namespace pl_slam {
 namespace {
 
 namespace fs = std::filesystem;
+using testing_util::DatasetsDir;
+using testing_util::WriteText;
 
 // A fresh folder under the system temp directory, removed with everything in it.
 // Each test's files go in its own folder, named after this file.
@@ -25,11 +28,6 @@ class TempDir : public testing_util::TempDir {
  public:
   TempDir() : testing_util::TempDir("traj_test") {}
 };
-
-void WriteText(const std::string& path, const std::string& content) {
-  std::ofstream out(path, std::ios::binary);
-  out << content;
-}
 
 Trajectory RandomTrajectory(int n, double t0, double dt, unsigned seed) {
   std::mt19937 rng(seed);
