@@ -741,6 +741,8 @@ std::string LineDetectorOptions::Validate() const {
     os << "min_length_ratio=" << min_length_ratio << " must be in (0, 0.5]";
   } else if (max_lines < 0 || max_lines > 10000) {
     os << "max_lines=" << max_lines << " must be in [0, 10000]";
+  } else if (!(prefer_steep_deg >= 0.0 && prefer_steep_deg <= 45.0)) {
+    os << "prefer_steep_deg=" << prefer_steep_deg << " must be in [0, 45]";
   } else if (!(canny_low > 0.0 && canny_low <= 2000.0)) {
     os << "canny_low=" << canny_low << " must be in (0, 2000]";
   } else if (!(canny_high >= canny_low && canny_high <= 2000.0)) {
@@ -846,7 +848,17 @@ void LineDetector::Detect(const cv::Mat& image, LineFeatures* lines, cv::Mat* de
              segs.end());
   auto longer = [](const RawSegment& a, const RawSegment& b) { return a.Length() > b.Length(); };
   if (options_.max_lines > 0 && static_cast<int>(segs.size()) > options_.max_lines) {
-    std::nth_element(segs.begin(), segs.begin() + options_.max_lines, segs.end(), longer);
+    // Segments nearly parallel to the rows get no stereo depth (see MatchStereoLines), so
+    // they cannot constrain the motion: when the cap bites, steeper segments come first.
+    const double flat_tan = std::tan(options_.prefer_steep_deg * M_PI / 180.0);
+    auto flat = [flat_tan](const RawSegment& r) {
+      return std::abs(r.y2 - r.y1) < flat_tan * std::abs(r.x2 - r.x1);
+    };
+    auto better = [&](const RawSegment& a, const RawSegment& b) {
+      const bool fa = flat(a), fb = flat(b);
+      return fa != fb ? fb : a.Length() > b.Length();
+    };
+    std::nth_element(segs.begin(), segs.begin() + options_.max_lines, segs.end(), better);
     segs.resize(options_.max_lines);
   }
   std::sort(segs.begin(), segs.end(), longer);

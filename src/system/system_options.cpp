@@ -62,6 +62,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.lines.min_length_ratio", &l.min_length_ratio,
         "shortest segment, fraction of min(width, height)");
   t.Add("tracker.lines.max_lines", &l.max_lines, "longest segments kept per image (0 = all)");
+  t.Add("tracker.lines.prefer_steep_deg", &l.prefer_steep_deg,
+        "under the cap, segments this close to horizontal rank last, deg (0 = by length only)");
   t.Add("tracker.lines.canny_low", &l.canny_low, "edge chain: Canny low threshold");
   t.Add("tracker.lines.canny_high", &l.canny_high, "edge chain: Canny high threshold");
   t.Add("tracker.lines.max_fit_distance", &l.max_fit_distance,

@@ -25,8 +25,11 @@ enum class LineDetectorKind {
 /// fits EuRoC (752x480) and KITTI (1241x376) alike.
 struct LineDetectorOptions {
   LineDetectorKind detector = LineDetectorKind::kEdgeChain;  ///< segment detector
-  double min_length_ratio = 0.05;   ///< shortest kept segment, fraction of min(width, height)
-  int max_lines = 120;              ///< keep at most this many, the longest first (0 = no cap)
+  double min_length_ratio = 0.05;  ///< shortest kept segment, fraction of min(width, height)
+  int max_lines = 120;             ///< keep at most this many, the longest first (0 = no cap)
+  /// Under the cap, segments within this angle of the image rows (no stereo depth) rank after
+  /// all steeper ones; 0 = longest first regardless of direction.
+  double prefer_steep_deg = 15.0;
   double canny_low = 40.0;          ///< edge chain: Canny low threshold on |dx|+|dy| (Sobel)
   double canny_high = 80.0;         ///< edge chain: Canny high threshold, one pixel per chain
   double max_fit_distance = 1.0;    ///< edge chain: pixel-to-line distance that ends a straight run
