@@ -5,6 +5,7 @@
 #include <chrono>
 #include <mutex>
 
+#include "pl_slam/mapping/local_map_matching.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 
@@ -23,13 +24,34 @@ const char* TrackingStateName(TrackingState state) {
 }
 
 std::string SystemOptions::Validate() const {
-  const std::string err = tracker.Validate();
-  return err.empty() ? err : "tracker." + err;
+  std::string err = tracker.Validate();
+  if (!err.empty()) return "tracker." + err;
+  err = mapping.Validate();
+  if (!err.empty()) return "mapping." + err;
+  return "";
 }
 
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+/// A tracked frame, kept relative to its reference keyframe.
+struct FrameRecord {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  double stamp_s = 0.0;
+  SE3 T_w_c;                     ///< as tracked
+  KeyframeId reference = kNoId;  ///< keyframe it was tracked after
+  SE3 T_ref_c;                   ///< pose relative to the reference keyframe as then estimated
+};
+
+MappingFrontEnd FrontEndOf(const TrackerOptions& t) {
+  MappingFrontEnd f;
+  f.point_matching = t.point_matching;
+  f.line_matching = t.line_matching;
+  f.motion = t.motion;
+  f.scale_factor = t.points.scale_factor;
+  return f;
+}
 
 }  // namespace
 
@@ -39,8 +61,26 @@ struct SlamSystem::Impl {
   std::unique_ptr<StereoTracker> tracker;
   TrackingState state = TrackingState::kNotInitialized;
   SE3 T_w_c;
-  mutable std::mutex trajectory_mutex;  // guards trajectory only (read from other threads)
-  Trajectory trajectory;
+  // Mapping. Lock order: trajectory_mutex is a leaf; the map's lock is never taken inside it.
+  std::unique_ptr<Map> map;
+  std::unique_ptr<LocalMapper> mapper;
+  MappingFrontEnd front_end;
+  KeyframeId next_keyframe_id = 0;
+  KeyframeId reference = kNoId;         // last keyframe handed to mapping
+  SE3 T_w_reference;                    // its pose when handed over
+  LocalMap local_map;                   // cached copy, refreshed when the map changes
+  mutable std::mutex trajectory_mutex;  // guards records (read from other threads)
+  std::vector<FrameRecord, Eigen::aligned_allocator<FrameRecord>> records;
+
+  void RefreshLocalMap() {
+    const KeyframeId last = map->LastKeyframe();
+    if (last == kNoId) {
+      local_map = LocalMap();
+      return;
+    }
+    if (last == local_map.reference && map->version() == local_map.version) return;
+    local_map = map->GetLocalMap(last, options.mapping.local_map_keyframes);
+  }
 };
 
 SlamSystem::SlamSystem(const StereoCamera& camera, const SystemOptions& options)
@@ -52,23 +92,68 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const SystemOptions& options)
   impl_->camera = camera;
   impl_->options = options;
   impl_->tracker = std::make_unique<StereoTracker>(camera, options.tracker);
+  impl_->front_end = FrontEndOf(options.tracker);
+  impl_->map = std::make_unique<Map>(options.mapping.map);
+  if (options.mapping.enabled)
+    impl_->mapper =
+        std::make_unique<LocalMapper>(camera, options.mapping, impl_->front_end, impl_->map.get());
 }
 
-SlamSystem::~SlamSystem() = default;
+SlamSystem::~SlamSystem() {
+  impl_->mapper.reset();  // stops the mapping thread before the map goes
+}
+
+const Map& SlamSystem::map() const { return *impl_->map; }
+
+MappingStats SlamSystem::mapping_stats() const {
+  return impl_->mapper ? impl_->mapper->stats() : MappingStats();
+}
+
+void SlamSystem::Flush() {
+  if (impl_->mapper) impl_->mapper->Flush();
+}
 
 const StereoCamera& SlamSystem::camera() const { return impl_->camera; }
 
 void SlamSystem::Reset() {
-  impl_->tracker->Reset();
-  impl_->state = TrackingState::kNotInitialized;
-  impl_->T_w_c = SE3();
-  std::lock_guard<std::mutex> lock(impl_->trajectory_mutex);
-  impl_->trajectory.clear();
+  Impl& s = *impl_;
+  if (s.mapper) s.mapper->Clear();
+  s.map->Clear();
+  s.local_map = LocalMap();
+  s.reference = kNoId;
+  s.tracker->Reset();
+  s.state = TrackingState::kNotInitialized;
+  s.T_w_c = SE3();
+  std::lock_guard<std::mutex> lock(s.trajectory_mutex);
+  s.records.clear();
 }
 
 Trajectory SlamSystem::trajectory() const {
-  std::lock_guard<std::mutex> lock(impl_->trajectory_mutex);
-  return impl_->trajectory;
+  const Impl& s = *impl_;
+  std::vector<FrameRecord, Eigen::aligned_allocator<FrameRecord>> records;
+  {
+    std::lock_guard<std::mutex> lock(s.trajectory_mutex);
+    records = s.records;
+  }
+  Trajectory out;
+  out.reserve(records.size());
+  KeyframeId cached_id = kNoId;
+  SE3 cached_pose;
+  bool cached_ok = false;
+  for (const FrameRecord& r : records) {
+    StampedPose sp;
+    sp.t = r.stamp_s;
+    sp.T_w_c = r.T_w_c;
+    if (r.reference != kNoId) {
+      if (r.reference != cached_id) {
+        cached_id = r.reference;
+        cached_ok = s.map->KeyframePose(r.reference, &cached_pose);
+      }
+      if (cached_ok) sp.T_w_c = cached_pose * r.T_ref_c;
+    }
+    out.push_back(sp);
+  }
+  return out;
 }
 
 FrameResult SlamSystem::Process(const StereoFrame& frame) {
@@ -120,15 +205,68 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   result.line_inliers = r.line_inliers;
   result.warning = r.warning;
   result.stage_ms = r.stage_ms;
-  if (r.pose_valid) {
+  if (s.mapper) TrackAndMap(frame, r, &result);
+  if (result.pose_valid) {
     std::lock_guard<std::mutex> lock(s.trajectory_mutex);
-    StampedPose sp;
-    sp.t = frame.stamp_s();
-    sp.T_w_c = r.T_w_c;
-    s.trajectory.push_back(sp);
+    FrameRecord rec;
+    rec.stamp_s = frame.stamp_s();
+    rec.T_w_c = result.T_w_c;
+    rec.reference = s.reference;
+    rec.T_ref_c = s.T_w_reference.inverse() * result.T_w_c;
+    s.records.push_back(rec);
   }
   result.total_ms = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
   return result;
+}
+
+void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
+                             FrameResult* result) {
+  Impl& s = *impl_;
+  const auto t0 = Clock::now();
+  const MappingOptions& mo = s.options.mapping;
+  LocalMapTracking tracked;
+  if (r.pose_valid && mo.track_local_map) {
+    s.RefreshLocalMap();
+    if (!s.local_map.point_ids.empty() || !s.local_map.line_ids.empty()) {
+      tracked = TrackLocalMap(s.camera, s.tracker->last_features(), s.local_map, r.T_w_c, mo,
+                              s.front_end);
+      if (tracked.success) {
+        s.tracker->CorrectPose(tracked.T_w_c);
+        s.T_w_c = tracked.T_w_c;
+        result->T_w_c = tracked.T_w_c;
+        result->map_tracked = true;
+        result->map_point_inliers = tracked.point_inliers;
+        result->map_line_inliers = tracked.line_inliers;
+      } else {
+        PL_LOG_DEBUG("frame " << frame.index << ": " << tracked.failure);
+      }
+    }
+  }
+  result->stage_ms.emplace_back(
+      "local_map", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  if (r.is_keyframe && r.pose_valid) {
+    KeyframeInput kf;
+    kf.id = s.next_keyframe_id++;
+    kf.frame_index = frame.index;
+    kf.stamp_s = frame.stamp_s();
+    kf.T_w_c = result->T_w_c;
+    kf.features = s.tracker->last_features();
+    if (tracked.success) {
+      kf.point_associations = tracked.point_associations;
+      kf.line_associations = tracked.line_associations;
+    }
+    const KeyframeId id = kf.id;
+    if (s.mapper->Submit(std::move(kf))) {
+      s.reference = id;
+      s.T_w_reference = result->T_w_c;
+    } else {
+      PL_LOG_DEBUG("frame " << frame.index << ": mapping busy, keyframe dropped");
+    }
+  }
+  const MapCounts counts = s.map->counts();
+  result->keyframes = static_cast<int>(counts.keyframes);
+  result->map_points = static_cast<int>(counts.points);
+  result->map_lines = static_cast<int>(counts.lines);
 }
 
 }  // namespace pl_slam

@@ -134,6 +134,52 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "keyframe after this translation, m");
   t.Add("tracker.keyframes.max_rotation_deg", &k.max_rotation_deg,
         "keyframe after this rotation, deg");
+  MappingOptions& mp = options->mapping;
+  t.Add("mapping.enabled", &mp.enabled, "build a map (off: visual odometry only)");
+  t.Add("mapping.threaded", &mp.threaded,
+        "local mapping in its own thread (off: in line, deterministic)");
+  t.Add("mapping.queue_size", &mp.queue_size, "keyframes waiting for mapping; more are dropped");
+  t.Add("mapping.window", &mp.window, "keyframes optimised by local bundle adjustment");
+  t.Add("mapping.max_fixed_keyframes", &mp.max_fixed_keyframes,
+        "outside keyframes held fixed in local bundle adjustment");
+  t.Add("mapping.refine_against_previous", &mp.refine_against_previous,
+        "refine a new keyframe's pose against the previous keyframe");
+  t.Add("mapping.refine_min_inliers", &mp.refine_min_inliers,
+        "inliers needed to accept that refinement");
+  t.Add("mapping.search_radius", &mp.search_radius, "local-map search radius, px");
+  t.Add("mapping.local_map_keyframes", &mp.local_map_keyframes,
+        "covisible keyframes whose landmarks form the local map");
+  t.Add("mapping.cull_after_keyframes", &mp.cull_after_keyframes,
+        "keyframes after which a landmark seen by < min_observations keyframes is removed");
+  t.Add("mapping.min_observations", &mp.min_observations, "see cull_after_keyframes");
+  t.Add("mapping.cull_keyframes", &mp.cull_keyframes, "remove redundant keyframes");
+  t.Add("mapping.redundant_ratio", &mp.redundant_ratio,
+        "keyframe redundant when this share of its landmarks is seen by enough others");
+  t.Add("mapping.redundant_min_observers", &mp.redundant_min_observers,
+        "other keyframes that count as enough");
+  t.Add("mapping.stereo_residuals", &mp.stereo_residuals,
+        "bundle adjustment also uses the right image of stereo observations");
+  t.Add("mapping.line_weight", &mp.line_weight,
+        "information of a line residual relative to a point's in mapping");
+  t.Add("mapping.track_local_map", &mp.track_local_map,
+        "tracking also matches the local map (bounded drift)");
+  t.Add("mapping.track_min_inliers", &mp.track_min_inliers,
+        "local-map inliers needed to correct the frame-to-frame pose");
+  t.Add("mapping.track_max_correction", &mp.track_max_correction,
+        "largest accepted local-map correction, m");
+  BundleAdjustmentOptions& ba = mp.ba;
+  t.Add("mapping.ba.max_iterations", &ba.max_iterations, "Levenberg-Marquardt iterations per pass");
+  t.Add("mapping.ba.second_pass", &ba.second_pass, "re-optimise without the first pass' outliers");
+  t.Add("mapping.ba.point_chi2_mono", &ba.point_chi2_mono, "point outlier threshold, 2 dof");
+  t.Add("mapping.ba.point_chi2_stereo", &ba.point_chi2_stereo, "point outlier threshold, 3 dof");
+  t.Add("mapping.ba.line_chi2_mono", &ba.line_chi2_mono, "line outlier threshold, 2 dof");
+  t.Add("mapping.ba.line_chi2_stereo", &ba.line_chi2_stereo, "line outlier threshold, 4 dof");
+  t.Add("mapping.ba.min_depth", &ba.min_depth, "observations closer than this (m) are outliers");
+  t.Add("mapping.ba.num_threads", &ba.num_threads, "Ceres threads");
+  t.Add("mapping.map.covisibility_min_shared", &mp.map.covisibility_min_shared,
+        "covisibility edge: shared landmarks at least");
+  t.Add("mapping.map.essential_min_shared", &mp.map.essential_min_shared,
+        "essential-graph edge: shared landmarks more than");
   return t;
 }
 

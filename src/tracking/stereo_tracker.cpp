@@ -122,6 +122,10 @@ void StereoTracker::Reset() {
   s.selector.Reset();
 }
 
+void StereoTracker::CorrectPose(const SE3& T_w_c) {
+  if (T_w_c.IsFinite()) impl_->T_w_c = T_w_c;
+}
+
 TrackerResult StereoTracker::Track(const StereoFrame& frame) {
   Impl& s = *impl_;
   TrackerResult result;

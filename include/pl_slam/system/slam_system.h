@@ -11,6 +11,8 @@
 #include "pl_slam/geometry/se3.h"
 #include "pl_slam/io/stereo_frame.h"
 #include "pl_slam/io/trajectory.h"
+#include "pl_slam/map/map.h"
+#include "pl_slam/mapping/local_mapper.h"
 #include "pl_slam/tracking/stereo_tracker.h"
 #include "pl_slam/util/option_table.h"
 
@@ -25,6 +27,7 @@ const char* TrackingStateName(TrackingState state);
 /// Options of the whole system (one nested struct per module).
 struct SystemOptions {
   TrackerOptions tracker;  ///< "tracker.*": front end (features, matching, motion, keyframes)
+  MappingOptions mapping;  ///< "mapping.*": map, local mapping, local BA, local-map tracking
 
   /// Empty when valid, else "key=value: allowed range" naming the first bad key.
   std::string Validate() const;
@@ -46,7 +49,13 @@ struct FrameResult {
   int lines_detected = 0;
   int point_inliers = 0;
   int line_inliers = 0;
-  std::string warning;  ///< why the frame was not tracked, when it was not
+  bool map_tracked = false;   ///< the pose was refined against the local map
+  int map_point_inliers = 0;  ///< local-map inliers (points)
+  int map_line_inliers = 0;   ///< local-map inliers (lines)
+  int keyframes = 0;          ///< keyframes in the map
+  int map_points = 0;         ///< point landmarks in the map
+  int map_lines = 0;          ///< line landmarks in the map
+  std::string warning;        ///< why the frame was not tracked, when it was not
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
   double total_ms = 0.0;
 };
@@ -65,8 +74,19 @@ class SlamSystem {
   /// result; the pose never becomes NaN.
   FrameResult Process(const StereoFrame& frame);
 
-  /// Estimated left-camera trajectory (one pose per tracked frame) so far.
+  /// Estimated left-camera trajectory (one pose per tracked frame) so far. With mapping, each
+  /// frame is stored relative to its reference keyframe, so bundle adjustment (and later loop
+  /// closure) corrections of the keyframes move the frames with them.
   Trajectory trajectory() const;
+
+  /// Waits until local mapping has processed every queued keyframe (end of a sequence).
+  void Flush();
+
+  /// The map (thread-safe readers: Snapshot(), counts()).
+  const Map& map() const;
+
+  /// Counters and timings of local mapping (zeros when mapping is off).
+  MappingStats mapping_stats() const;
 
   /// Forgets everything: the next frame starts a new map at the identity.
   void Reset();
@@ -74,6 +94,9 @@ class SlamSystem {
   const StereoCamera& camera() const;
 
  private:
+  /// Local-map tracking and keyframe hand-over for a frame the tracker processed.
+  void TrackAndMap(const StereoFrame& frame, const TrackerResult& r, FrameResult* result);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };

@@ -80,6 +80,10 @@ class StereoTracker {
   /// Forgets the previous frame: the next frame restarts at the identity.
   void Reset();
 
+  /// Replaces the current pose by a better estimate (tracking against the map); the motion
+  /// prior (velocity) and the keyframe chain are kept.
+  void CorrectPose(const SE3& T_w_c);
+
   /// Features of the last frame (for the debug image and the map).
   const StereoFeatures& last_features() const;
 

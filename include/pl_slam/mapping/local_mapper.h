@@ -1,0 +1,110 @@
+// Local mapping (paper Section V) in its own thread: keyframe insertion (pose refined against
+// the previous keyframe, new landmarks and observations, a search of the local map for more
+// matches), local bundle adjustment over the covisible keyframes, and culling of bad landmarks
+// and redundant keyframes. Fed by tracking through a bounded queue of immutable keyframe
+// messages; tracking never waits for it (a full queue drops the keyframe, counted).
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pl_slam/camera/stereo_camera.h"
+#include "pl_slam/features/stereo_features.h"
+#include "pl_slam/geometry/se3.h"
+#include "pl_slam/map/map.h"
+#include "pl_slam/matching/line_matching.h"
+#include "pl_slam/matching/point_matching.h"
+#include "pl_slam/optimization/bundle_adjustment.h"
+#include "pl_slam/tracking/motion_estimator.h"
+
+namespace pl_slam {
+
+/// Options of local mapping and of tracking against the local map.
+struct MappingOptions {
+  bool enabled = true;   ///< build a map; off = visual odometry only
+  bool threaded = true;  ///< local mapping in its own thread; off = in Process() (deterministic)
+  int queue_size = 4;    ///< keyframes waiting for mapping; a full queue drops new ones
+  int window = 10;       ///< keyframes optimised by local BA (the new one and its best covisible)
+  int max_fixed_keyframes = 20;  ///< other keyframes observing the window's landmarks, held fixed
+  bool refine_against_previous = true;  ///< refine a new keyframe's pose against the previous one
+  int refine_min_inliers = 30;          ///< fewer inliers: keep the tracked pose
+  double search_radius = 8.0;           ///< local-map search radius, pixels at octave 0
+  int local_map_keyframes = 10;         ///< covisible keyframes whose landmarks form the local map
+  int cull_after_keyframes = 3;  ///< a landmark still seen by < min_observations keyframes this
+                                 ///< many keyframes after its creation is removed
+  int min_observations = 2;      ///< see cull_after_keyframes
+  bool cull_keyframes = true;    ///< remove redundant keyframes
+  double redundant_ratio = 0.9;  ///< redundant: this share of its landmarks seen by enough others
+  int redundant_min_observers = 3;    ///< "enough others"
+  bool stereo_residuals = true;       ///< BA also uses the right image of stereo observations
+  double line_weight = 1.0;           ///< information of a line residual relative to a point's
+  bool track_local_map = true;        ///< tracking also matches the local map (bounded drift)
+  int track_min_inliers = 20;         ///< fewer local-map inliers: keep the frame-to-frame pose
+  double track_max_correction = 0.3;  ///< larger local-map correction (m) is refused as a mismatch
+  BundleAdjustmentOptions ba;         ///< "ba.*"
+  MapOptions map;                     ///< "map.*"
+  /// Empty when valid, else "key=value must be ..." naming the first bad key.
+  std::string Validate() const;
+};
+
+/// What tracking hands to local mapping for a new keyframe.
+struct KeyframeInput {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  KeyframeId id = kNoId;  ///< assigned by the caller, increasing
+  int frame_index = -1;
+  double stamp_s = 0.0;
+  SE3 T_w_c;  ///< tracked pose
+  StereoFeatures features;
+  /// (feature index, landmark) pairs found by tracking against the local map.
+  std::vector<std::pair<int, LandmarkId>> point_associations, line_associations;
+};
+
+/// Counters and timings of local mapping.
+struct MappingStats {
+  int keyframes_processed = 0;
+  int keyframes_dropped = 0;  ///< the queue was full
+  int keyframes_culled = 0;
+  int queue_length = 0;
+  double last_ba_ms = 0.0;
+  double last_keyframe_ms = 0.0;  ///< whole processing of the last keyframe
+  std::vector<double> ba_ms;      ///< every local BA, for benchmarks
+  std::vector<double> keyframe_ms;
+};
+
+/// The options of the modules local mapping reuses from tracking.
+struct MappingFrontEnd {
+  PointMatchingOptions point_matching;
+  LineMatchingOptions line_matching;
+  MotionEstimatorOptions motion;
+  double scale_factor = 1.2;  ///< ORB pyramid scale step (observation sigma per octave)
+};
+
+/// Local mapping. Submit() from the tracking thread; the map is shared with readers.
+class LocalMapper {
+ public:
+  /// Starts the mapping thread when options.threaded. Throws ConfigError on invalid options.
+  LocalMapper(const StereoCamera& camera, const MappingOptions& options,
+              const MappingFrontEnd& front_end, Map* map);
+  /// Stops the thread (keyframes still queued are discarded).
+  ~LocalMapper();
+  LocalMapper(const LocalMapper&) = delete;
+  LocalMapper& operator=(const LocalMapper&) = delete;
+
+  /// Hands over a keyframe. Threaded: queued, or dropped (returns false) when the queue is full.
+  /// Sequential: processed before returning.
+  bool Submit(KeyframeInput keyframe);
+  /// Blocks until every queued keyframe has been processed.
+  void Flush();
+  /// Discards queued keyframes and waits for the one in progress (before a reset).
+  void Clear();
+  MappingStats stats() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace pl_slam

@@ -1,0 +1,91 @@
+// Bundle adjustment over keyframe poses, point landmarks and line landmarks (paper Section V,
+// eqs. 4-6): Levenberg-Marquardt in Ceres with the analytic costs of point_cost.h and
+// line_cost.h, SE(3) poses on SE3Manifold, a robust (Huber) loss, sparse Schur elimination of
+// the landmarks with SuiteSparse, and outlier observations flagged after the optimisation.
+// ROS-free and map-free: the local mapper copies a window of the map into a BaProblem, solves
+// it without holding the map lock, and writes the result back.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/StdVector>
+
+#include "pl_slam/camera/stereo_camera.h"
+#include "pl_slam/geometry/se3.h"
+
+namespace pl_slam {
+
+/// Options of SolveBundleAdjustment.
+struct BundleAdjustmentOptions {
+  int max_iterations = 10;           ///< Levenberg-Marquardt iterations per pass
+  bool second_pass = true;           ///< re-optimise without the outliers of the first pass
+  double point_chi2_mono = 5.991;    ///< outlier above this squared whitened residual, 2 dof (95 %)
+  double point_chi2_stereo = 7.815;  ///< same, 3 dof
+  double line_chi2_mono = 5.991;     ///< lines, 2 dof
+  double line_chi2_stereo = 9.488;   ///< lines, 4 dof
+  double min_depth = 0.05;           ///< observations whose point is closer (m) are outliers
+  int num_threads = 1;               ///< Ceres threads (tracking keeps the other core)
+  /// Empty when valid, else "key=value must be ..." naming the first bad key.
+  std::string Validate() const;
+};
+
+/// A keyframe pose in the problem.
+struct BaPose {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  SE3 T_w_c;           ///< in: initial value; out: optimised (unchanged when fixed)
+  bool fixed = false;  ///< held constant (keyframes outside the local window, the gauge)
+};
+
+/// An observation of point landmark `point` in keyframe `pose`.
+struct BaPointObservation {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  int pose = 0;
+  int point = 0;
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();  ///< left-image pixel
+  bool stereo = false;                           ///< u_right is measured (stereo match)
+  double u_right = 0.0;                          ///< right-image column when stereo
+  double sqrt_info = 1.0;  ///< 1 / sigma in pixels (sigma grows with the pyramid octave)
+};
+
+/// An observation of line landmark `line` in keyframe `pose`.
+struct BaLineObservation {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  int pose = 0;
+  int line = 0;
+  Eigen::Vector3d l = Eigen::Vector3d::Zero();        ///< normalised left-image line
+  bool stereo = false;                                ///< l_right is measured
+  Eigen::Vector3d l_right = Eigen::Vector3d::Zero();  ///< normalised right-image line
+  double sqrt_info = 1.0;
+};
+
+/// A bundle adjustment problem: poses, landmarks and observations referring to them by index.
+struct BaProblem {
+  std::vector<BaPose, Eigen::aligned_allocator<BaPose>> poses;
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> points;  ///< p_w
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> line_P;  ///< P_w
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> line_Q;  ///< Q_w
+  std::vector<BaPointObservation, Eigen::aligned_allocator<BaPointObservation>> point_obs;
+  std::vector<BaLineObservation, Eigen::aligned_allocator<BaLineObservation>> line_obs;
+};
+
+/// What the optimisation did.
+struct BaSummary {
+  bool success = false;                         ///< Ceres reported a usable solution
+  std::string message;                          ///< Ceres' report when not successful
+  int iterations = 0;                           ///< both passes together
+  double initial_cost = 0.0, final_cost = 0.0;  ///< of the first / last pass
+  std::vector<uint8_t> point_outlier;  ///< per point observation: 1 = outlier after the solve
+  std::vector<uint8_t> line_outlier;   ///< per line observation
+  int point_outliers = 0, line_outliers = 0;
+  double solve_ms = 0.0;
+};
+
+/// Optimises `problem` in place (poses not fixed, every landmark). At least one pose must be
+/// fixed (the gauge); when none is, the first is held fixed. Throws ConfigError on invalid
+/// options; bad indices in observations are skipped.
+BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustmentOptions& options,
+                                BaProblem* problem);
+
+}  // namespace pl_slam

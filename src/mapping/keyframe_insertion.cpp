@@ -1,0 +1,209 @@
+// Keyframe insertion: refine the pose against the previous keyframe, then give the keyframe's
+// features observations of existing landmarks before creating new ones, so that one physical
+// point or segment stays one landmark.
+#include <unordered_set>
+
+#include "mapping_steps.h"
+#include "pl_slam/mapping/local_map_matching.h"
+#include "pl_slam/util/logging.h"
+
+namespace pl_slam {
+namespace mapping {
+namespace {
+
+/// World positions of the previous keyframe's features: its landmark's when it has one, else
+/// its own stereo triangulation.
+struct PreviousKeyframe {
+  std::shared_ptr<const Keyframe> kf;
+  SE3 T_w_c;
+  std::vector<char> point_valid, line_valid;
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> point_w, line_P_w,
+      line_Q_w;
+};
+
+bool CopyPrevious(const Context& ctx, PreviousKeyframe* prev) {
+  Map& map = *ctx.map;
+  auto lock = map.Lock();
+  const auto& kfs = map.KeyframesLocked();
+  if (kfs.empty()) return false;
+  const auto& kf = kfs.rbegin()->second;
+  prev->kf = kf;
+  prev->T_w_c = kf->T_w_c;
+  const StereoFeatures& f = kf->features;
+  prev->point_valid.assign(f.points.size(), 0);
+  prev->point_w.assign(f.points.size(), Eigen::Vector3d::Zero());
+  for (size_t i = 0; i < f.points.size(); ++i) {
+    if (const auto lm = map.PointLocked(kf->point_landmarks[i])) {
+      prev->point_w[i] = lm->p_w;
+      prev->point_valid[i] = 1;
+    } else if (f.points[i].has_depth) {
+      prev->point_w[i] = kf->T_w_c * f.points[i].p_c;
+      prev->point_valid[i] = 1;
+    }
+  }
+  prev->line_valid.assign(f.lines.size(), 0);
+  prev->line_P_w.assign(f.lines.size(), Eigen::Vector3d::Zero());
+  prev->line_Q_w.assign(f.lines.size(), Eigen::Vector3d::Zero());
+  for (size_t i = 0; i < f.lines.size(); ++i) {
+    if (const auto lm = map.LineLocked(kf->line_landmarks[i])) {
+      prev->line_P_w[i] = lm->P_w;
+      prev->line_Q_w[i] = lm->Q_w;
+      prev->line_valid[i] = 1;
+    } else if (f.lines[i].has_depth) {
+      prev->line_P_w[i] = kf->T_w_c * f.lines[i].P_c;
+      prev->line_Q_w[i] = kf->T_w_c * f.lines[i].Q_c;
+      prev->line_valid[i] = 1;
+    }
+  }
+  return true;
+}
+
+/// Matches the new keyframe against the previous one and refines its pose from the previous
+/// keyframe's 3D features; keeps only the inlier matches.
+void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Keyframe* kf,
+                           std::vector<std::pair<int, int>>* point_matches,
+                           std::vector<std::pair<int, int>>* line_matches) {
+  const StereoFeatures& pf = prev.kf->features;
+  const StereoFeatures& cf = kf->features;
+  const SE3 T_new_prev = kf->T_w_c.inverse() * prev.T_w_c;
+  std::vector<std::pair<int, int>> pm_all, lm_all;
+  if (!pf.points.empty() && !cf.points.empty())
+    pm_all =
+        MatchPointsFrameToFrame(ctx.camera, pf.points, pf.point_descriptors, cf.points,
+                                cf.point_descriptors, ctx.front_end.point_matching, &T_new_prev);
+  if (!pf.lines.empty() && !cf.lines.empty()) {
+    LinePrediction prediction;
+    prediction.T_cur_prev = T_new_prev;
+    prediction.camera = ctx.camera;
+    lm_all = MatchLines(pf.lines, pf.line_descriptors, cf.lines, cf.line_descriptors,
+                        ctx.front_end.line_matching, &prediction);
+  }
+  PointMatches3D2D pm;
+  LineMatches3D2D lm;
+  std::vector<std::pair<int, int>> pm_used, lm_used;
+  for (const auto& [i, j] : pm_all) {
+    if (!prev.point_valid[i]) continue;
+    PointMatch3D2D m;
+    m.P_prev = prev.point_w[i];
+    m.uv_cur = cf.points[j].uv;
+    const double s = PointSqrtInfo(ctx, cf.points[j].octave);
+    m.weight = s * s;
+    pm.push_back(m);
+    pm_used.emplace_back(i, j);
+  }
+  for (const auto& [i, j] : lm_all) {
+    if (!prev.line_valid[i]) continue;
+    LineMatch3D2D m;
+    m.P_prev = prev.line_P_w[i];
+    m.Q_prev = prev.line_Q_w[i];
+    m.l_cur = cf.lines[j].l;
+    m.weight = ctx.options.line_weight;
+    lm.push_back(m);
+    lm_used.emplace_back(i, j);
+  }
+  // The "previous frame" of the estimator is the world here: it estimates T_new_w.
+  const MotionEstimate est =
+      EstimateMotion(ctx.camera, pm, lm, kf->T_w_c.inverse(), ctx.front_end.motion);
+  if (!est.success) return;  // no reliable matches: tracking's pose and associations only
+  for (size_t k = 0; k < pm_used.size(); ++k)
+    if (est.point_inlier[k]) point_matches->push_back(pm_used[k]);
+  for (size_t k = 0; k < lm_used.size(); ++k)
+    if (est.line_inlier[k]) line_matches->push_back(lm_used[k]);
+  if (!ctx.options.refine_against_previous ||
+      est.point_inliers + est.line_inliers < ctx.options.refine_min_inliers)
+    return;
+  const SE3 T_w_new = est.T_cur_prev.inverse();
+  const SE3 correction = T_w_new.inverse() * kf->T_w_c;
+  if (T_w_new.IsFinite() && correction.translation().norm() < ctx.options.track_max_correction &&
+      correction.RotationAngle() < 0.1)
+    kf->T_w_c = T_w_new;
+}
+
+/// Projects the local map's landmarks that the keyframe does not observe yet into it and
+/// matches them with its features that have no landmark; adds the observations.
+void SearchLocalMap(const Context& ctx, Keyframe* kf) {
+  Map& map = *ctx.map;
+  const LocalMap local = map.GetLocalMap(kf->id, ctx.options.local_map_keyframes);
+  // Only this thread changes the keyframe's landmark vectors: reading them unlocked is safe.
+  const std::unordered_set<LandmarkId> own_points(kf->point_landmarks.begin(),
+                                                  kf->point_landmarks.end());
+  const std::unordered_set<LandmarkId> own_lines(kf->line_landmarks.begin(),
+                                                 kf->line_landmarks.end());
+  LocalMapMasks masks;
+  for (LandmarkId id : local.point_ids) masks.skip_local_points.push_back(own_points.count(id));
+  for (LandmarkId id : local.line_ids) masks.skip_local_lines.push_back(own_lines.count(id));
+  for (LandmarkId id : kf->point_landmarks) masks.skip_feature_points.push_back(id != kNoId);
+  for (LandmarkId id : kf->line_landmarks) masks.skip_feature_lines.push_back(id != kNoId);
+  const LocalMapMatches matches =
+      MatchLocalMap(ctx.camera, local, kf->T_w_c.inverse(), kf->features, masks, ctx.front_end,
+                    ctx.options.search_radius);
+  auto lock = map.Lock();
+  for (const auto& [i, j] : matches.points)
+    map.AddPointObservationLocked(local.point_ids[i], kf->id, j);
+  for (const auto& [i, j] : matches.lines)
+    map.AddLineObservationLocked(local.line_ids[i], kf->id, j);
+}
+
+}  // namespace
+
+void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
+  Map& map = *ctx.map;
+  auto kf = std::make_shared<Keyframe>();
+  kf->id = input->id;
+  kf->frame_index = input->frame_index;
+  kf->stamp_s = input->stamp_s;
+  kf->T_w_c = input->T_w_c;
+  kf->features = std::move(input->features);
+
+  PreviousKeyframe prev;
+  std::vector<std::pair<int, int>> point_matches, line_matches;
+  const bool has_prev = CopyPrevious(ctx, &prev);
+  if (has_prev) RefineAgainstPrevious(ctx, prev, kf.get(), &point_matches, &line_matches);
+
+  {
+    auto lock = map.Lock();
+    kf->parent = has_prev ? prev.kf->id : kNoId;
+    map.AddKeyframeLocked(kf);
+    for (const auto& [j, lm] : input->point_associations)
+      map.AddPointObservationLocked(lm, kf->id, j);
+    for (const auto& [j, lm] : input->line_associations)
+      map.AddLineObservationLocked(lm, kf->id, j);
+    if (has_prev && map.KeyframeLocked(prev.kf->id)) {
+      const auto& pk = *prev.kf;
+      for (const auto& [i, j] : point_matches) {
+        if (kf->point_landmarks[j] != kNoId) continue;
+        LandmarkId lm = pk.point_landmarks[i];
+        if (lm == kNoId && pk.features.points[i].has_depth)
+          lm = map.AddPointLocked(pk.T_w_c * pk.features.points[i].p_c, pk.id, i);
+        if (lm != kNoId) map.AddPointObservationLocked(lm, kf->id, j);
+      }
+      for (const auto& [i, j] : line_matches) {
+        if (kf->line_landmarks[j] != kNoId) continue;
+        LandmarkId lm = pk.line_landmarks[i];
+        const LineFeature& pl = pk.features.lines[i];
+        if (lm == kNoId && pl.has_depth)
+          lm = map.AddLineLocked(pk.T_w_c * pl.P_c, pk.T_w_c * pl.Q_c, pk.id, i);
+        if (lm != kNoId) map.AddLineObservationLocked(lm, kf->id, j);
+      }
+    }
+  }
+
+  SearchLocalMap(ctx, kf.get());
+
+  auto lock = map.Lock();
+  const StereoFeatures& f = kf->features;
+  for (size_t j = 0; j < f.points.size(); ++j)
+    if (f.points[j].has_depth && kf->point_landmarks[j] == kNoId)
+      map.AddPointLocked(kf->T_w_c * f.points[j].p_c, kf->id, static_cast<int>(j));
+  for (size_t j = 0; j < f.lines.size(); ++j)
+    if (f.lines[j].has_depth && kf->line_landmarks[j] == kNoId)
+      map.AddLineLocked(kf->T_w_c * f.lines[j].P_c, kf->T_w_c * f.lines[j].Q_c, kf->id,
+                        static_cast<int>(j));
+  // Spanning tree: hang the keyframe from the one it shares most landmarks with.
+  const auto covisible = map.CovisibleLocked(kf->id, 1);
+  if (!covisible.empty()) kf->parent = covisible.front().first;
+  map.TouchLocked();
+}
+
+}  // namespace mapping
+}  // namespace pl_slam

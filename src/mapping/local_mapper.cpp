@@ -1,0 +1,147 @@
+#include "pl_slam/mapping/local_mapper.h"
+
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <mutex>
+#include <thread>
+
+#include "mapping_steps.h"
+#include "pl_slam/util/error.h"
+#include "pl_slam/util/logging.h"
+#include "pl_slam/util/validation.h"
+
+namespace pl_slam {
+
+std::string MappingOptions::Validate() const {
+  std::string e = CheckRange("queue_size", queue_size, 1, 1000);
+  if (e.empty()) e = CheckRange("window", window, 2, 100);
+  if (e.empty()) e = CheckRange("max_fixed_keyframes", max_fixed_keyframes, 0, 1000);
+  if (e.empty()) e = CheckRange("refine_min_inliers", refine_min_inliers, 6, 10000);
+  if (e.empty()) e = CheckRange("search_radius", search_radius, 0.0, 200.0, true);
+  if (e.empty()) e = CheckRange("local_map_keyframes", local_map_keyframes, 0, 1000);
+  if (e.empty()) e = CheckRange("cull_after_keyframes", cull_after_keyframes, 1, 1000);
+  if (e.empty()) e = CheckRange("min_observations", min_observations, 1, 100);
+  if (e.empty()) e = CheckRange("redundant_ratio", redundant_ratio, 0.0, 1.0, true);
+  if (e.empty()) e = CheckRange("redundant_min_observers", redundant_min_observers, 1, 100);
+  if (e.empty()) e = CheckRange("line_weight", line_weight, 0.0, 100.0, true);
+  if (e.empty()) e = CheckRange("track_min_inliers", track_min_inliers, 6, 10000);
+  if (e.empty()) e = CheckRange("track_max_correction", track_max_correction, 0.0, 100.0, true);
+  if (!e.empty()) return e;
+  e = ba.Validate();
+  if (!e.empty()) return "ba." + e;
+  e = map.Validate();
+  if (!e.empty()) return "map." + e;
+  return "";
+}
+
+struct LocalMapper::Impl {
+  mapping::Context ctx;
+  mutable std::mutex mutex;  // guards queue, busy, stop and stats (never held with the map's)
+  std::condition_variable work_cv, idle_cv;
+  std::deque<KeyframeInput> queue;
+  bool busy = false;
+  bool stop = false;
+  MappingStats stats;
+  std::thread thread;
+
+  void Process(KeyframeInput* input) {
+    const auto t0 = std::chrono::steady_clock::now();
+    const KeyframeId id = input->id;
+    mapping::InsertKeyframe(ctx, input);
+    const BaSummary ba = mapping::LocalBundleAdjustment(ctx, id);
+    const int culled = mapping::Cull(ctx, id);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    std::lock_guard<std::mutex> lock(mutex);
+    ++stats.keyframes_processed;
+    stats.keyframes_culled += culled;
+    stats.last_ba_ms = ba.solve_ms;
+    stats.last_keyframe_ms = ms;
+    if (ba.solve_ms > 0.0) stats.ba_ms.push_back(ba.solve_ms);
+    stats.keyframe_ms.push_back(ms);
+  }
+
+  void Run() {
+    std::unique_lock<std::mutex> lock(mutex);
+    while (true) {
+      work_cv.wait(lock, [this] { return stop || !queue.empty(); });
+      if (stop) break;
+      KeyframeInput input = std::move(queue.front());
+      queue.pop_front();
+      busy = true;
+      lock.unlock();
+      try {
+        Process(&input);
+      } catch (const std::exception& e) {
+        PL_LOG_ERROR("local mapping: keyframe " << input.id << " failed: " << e.what());
+      }
+      lock.lock();
+      busy = false;
+      idle_cv.notify_all();
+    }
+    busy = false;
+    idle_cv.notify_all();
+  }
+};
+
+LocalMapper::LocalMapper(const StereoCamera& camera, const MappingOptions& options,
+                         const MappingFrontEnd& front_end, Map* map)
+    : impl_(std::make_unique<Impl>()) {
+  const std::string err = options.Validate();
+  if (!err.empty()) throw ConfigError("mapping." + err);
+  impl_->ctx.camera = camera;
+  impl_->ctx.options = options;
+  impl_->ctx.front_end = front_end;
+  impl_->ctx.map = map;
+  if (options.threaded) impl_->thread = std::thread([this] { impl_->Run(); });
+}
+
+LocalMapper::~LocalMapper() {
+  {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->stop = true;
+    impl_->queue.clear();
+  }
+  impl_->work_cv.notify_all();
+  if (impl_->thread.joinable()) impl_->thread.join();
+}
+
+bool LocalMapper::Submit(KeyframeInput keyframe) {
+  Impl& s = *impl_;
+  if (!s.ctx.options.threaded) {
+    s.Process(&keyframe);
+    return true;
+  }
+  {
+    std::lock_guard<std::mutex> lock(s.mutex);
+    if (static_cast<int>(s.queue.size()) >= s.ctx.options.queue_size) {
+      ++s.stats.keyframes_dropped;
+      return false;
+    }
+    s.queue.push_back(std::move(keyframe));
+  }
+  s.work_cv.notify_one();
+  return true;
+}
+
+void LocalMapper::Flush() {
+  std::unique_lock<std::mutex> lock(impl_->mutex);
+  impl_->idle_cv.wait(lock,
+                      [this] { return impl_->stop || (impl_->queue.empty() && !impl_->busy); });
+}
+
+void LocalMapper::Clear() {
+  std::unique_lock<std::mutex> lock(impl_->mutex);
+  impl_->queue.clear();
+  impl_->idle_cv.wait(lock, [this] { return impl_->stop || !impl_->busy; });
+}
+
+MappingStats LocalMapper::stats() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  MappingStats s = impl_->stats;
+  s.queue_length = static_cast<int>(impl_->queue.size());
+  return s;
+}
+
+}  // namespace pl_slam

@@ -1,0 +1,238 @@
+#include "pl_slam/optimization/bundle_adjustment.h"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include <ceres/ceres.h>
+
+#include "pl_slam/optimization/line_cost.h"
+#include "pl_slam/optimization/point_cost.h"
+#include "pl_slam/optimization/se3_manifold.h"
+#include "pl_slam/util/error.h"
+#include "pl_slam/util/validation.h"
+
+namespace pl_slam {
+
+std::string BundleAdjustmentOptions::Validate() const {
+  std::string e = CheckRange("max_iterations", max_iterations, 1, 1000);
+  if (e.empty()) e = CheckRange("point_chi2_mono", point_chi2_mono, 0.0, 1e6, true);
+  if (e.empty()) e = CheckRange("point_chi2_stereo", point_chi2_stereo, 0.0, 1e6, true);
+  if (e.empty()) e = CheckRange("line_chi2_mono", line_chi2_mono, 0.0, 1e6, true);
+  if (e.empty()) e = CheckRange("line_chi2_stereo", line_chi2_stereo, 0.0, 1e6, true);
+  if (e.empty()) e = CheckRange("min_depth", min_depth, 0.0, 100.0);
+  if (e.empty()) e = CheckRange("num_threads", num_threads, 1, 64);
+  return e;
+}
+
+namespace {
+
+/// Squared whitened residual and the smallest depth of an observation at the current values.
+struct Evaluation {
+  double chi2 = 0.0;
+  double depth = 0.0;
+};
+
+Evaluation EvaluatePoint(const StereoCamera& cam, const SE3& T_c_w, const Eigen::Vector3d& p_w,
+                         const BaPointObservation& o) {
+  Evaluation ev;
+  const Eigen::Vector3d X = T_c_w * p_w;
+  ev.depth = X.z();
+  if (!(X.z() > 0.0)) return ev;
+  double s = (cam.Project(X) - o.uv).squaredNorm();
+  if (o.stereo) {
+    const double du = cam.ProjectRight(X).x() - o.u_right;
+    s += du * du;
+  }
+  ev.chi2 = s * o.sqrt_info * o.sqrt_info;
+  return ev;
+}
+
+Evaluation EvaluateLine(const StereoCamera& cam, const SE3& T_c_w, const Eigen::Vector3d& P_w,
+                        const Eigen::Vector3d& Q_w, const BaLineObservation& o) {
+  Evaluation ev;
+  const Eigen::Vector3d X[2] = {T_c_w * P_w, T_c_w * Q_w};
+  ev.depth = std::min(X[0].z(), X[1].z());
+  if (!(ev.depth > 0.0)) return ev;
+  double s = 0.0;
+  for (const Eigen::Vector3d& x : X) {
+    const Eigen::Vector2d uv = cam.Project(x);
+    const double d = o.l.dot(Eigen::Vector3d(uv.x(), uv.y(), 1.0));
+    s += d * d;
+    if (o.stereo) {
+      const Eigen::Vector2d uvr = cam.ProjectRight(x);
+      const double dr = o.l_right.dot(Eigen::Vector3d(uvr.x(), uvr.y(), 1.0));
+      s += dr * dr;
+    }
+  }
+  ev.chi2 = s * o.sqrt_info * o.sqrt_info;
+  return ev;
+}
+
+}  // namespace
+
+BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustmentOptions& options,
+                                BaProblem* problem) {
+  const std::string err = options.Validate();
+  if (!err.empty()) throw ConfigError("bundle_adjustment." + err);
+  const auto t0 = std::chrono::steady_clock::now();
+  BaSummary summary;
+  BaProblem& p = *problem;
+  const int np = static_cast<int>(p.poses.size());
+  const int npt = static_cast<int>(p.points.size());
+  const int nl = static_cast<int>(std::min(p.line_P.size(), p.line_Q.size()));
+  summary.point_outlier.assign(p.point_obs.size(), 0);
+  summary.line_outlier.assign(p.line_obs.size(), 0);
+  if (np == 0) {
+    summary.message = "no poses";
+    return summary;
+  }
+
+  // Pose blocks hold T_c_w (the costs project world points into the camera).
+  std::vector<std::array<double, 7>> pose_params(np);
+  for (int i = 0; i < np; ++i) SE3ToParams(p.poses[i].T_w_c.inverse(), pose_params[i].data());
+  bool any_fixed = false;
+  for (const BaPose& pose : p.poses) any_fixed |= pose.fixed;
+
+  ceres::Problem::Options problem_options;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  SE3Manifold manifold;
+  ceres::Problem ceres_problem(problem_options);
+  std::vector<ceres::ResidualBlockId> point_blocks(p.point_obs.size(), nullptr);
+  std::vector<ceres::ResidualBlockId> line_blocks(p.line_obs.size(), nullptr);
+  auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+  std::vector<char> pose_used(np, 0);
+
+  const double huber_point_mono = std::sqrt(options.point_chi2_mono);
+  const double huber_point_stereo = std::sqrt(options.point_chi2_stereo);
+  const double huber_line_mono = std::sqrt(options.line_chi2_mono);
+  const double huber_line_stereo = std::sqrt(options.line_chi2_stereo);
+  auto use_pose = [&](int i) {
+    if (pose_used[i]) return;
+    pose_used[i] = 1;
+    ceres_problem.AddParameterBlock(pose_params[i].data(), 7, &manifold);
+    ordering->AddElementToGroup(pose_params[i].data(), 1);
+  };
+  for (size_t k = 0; k < p.point_obs.size(); ++k) {
+    const BaPointObservation& o = p.point_obs[k];
+    if (o.pose < 0 || o.pose >= np || o.point < 0 || o.point >= npt) continue;
+    use_pose(o.pose);
+    double* point = p.points[o.point].data();
+    ceres::CostFunction* cost;
+    ceres::LossFunction* loss;
+    if (o.stereo) {
+      cost = new StereoPointCost(camera, o.uv, o.u_right, o.sqrt_info);
+      loss = new ceres::HuberLoss(huber_point_stereo);
+    } else {
+      cost = new MonoPointCost(camera, o.uv, 0.0, o.sqrt_info);
+      loss = new ceres::HuberLoss(huber_point_mono);
+    }
+    point_blocks[k] = ceres_problem.AddResidualBlock(cost, loss, pose_params[o.pose].data(), point);
+    if (!ordering->IsMember(point)) ordering->AddElementToGroup(point, 0);
+  }
+  for (size_t k = 0; k < p.line_obs.size(); ++k) {
+    const BaLineObservation& o = p.line_obs[k];
+    if (o.pose < 0 || o.pose >= np || o.line < 0 || o.line >= nl) continue;
+    use_pose(o.pose);
+    double* P = p.line_P[o.line].data();
+    double* Q = p.line_Q[o.line].data();
+    ceres::CostFunction* cost;
+    ceres::LossFunction* loss;
+    if (o.stereo) {
+      cost = new StereoLineCost(camera, o.l, o.l_right, o.sqrt_info);
+      loss = new ceres::HuberLoss(huber_line_stereo);
+    } else {
+      cost = new MonoLineCost(camera, o.l, o.l, o.sqrt_info);
+      loss = new ceres::HuberLoss(huber_line_mono);
+    }
+    line_blocks[k] = ceres_problem.AddResidualBlock(cost, loss, pose_params[o.pose].data(), P, Q);
+    if (!ordering->IsMember(P)) ordering->AddElementToGroup(P, 0);
+    if (!ordering->IsMember(Q)) ordering->AddElementToGroup(Q, 0);
+  }
+  // The gauge: fixed poses, or the first used pose when the caller fixed none.
+  for (int i = 0; i < np; ++i) {
+    if (!pose_used[i]) continue;
+    if (p.poses[i].fixed || !any_fixed) {
+      ceres_problem.SetParameterBlockConstant(pose_params[i].data());
+      any_fixed = true;
+    }
+  }
+  if (ceres_problem.NumResidualBlocks() == 0) {
+    summary.message = "no observations";
+    return summary;
+  }
+
+  ceres::Solver::Options solver;
+  solver.linear_solver_type = ceres::SPARSE_SCHUR;
+  solver.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
+  solver.linear_solver_ordering = ordering;
+  solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver.max_num_iterations = options.max_iterations;
+  solver.num_threads = options.num_threads;
+  solver.logging_type = ceres::SILENT;
+  solver.minimizer_progress_to_stdout = false;
+
+  // Flags the observations still in the problem; removed ones keep their flag.
+  auto flag_outliers = [&]() {
+    for (size_t k = 0; k < p.point_obs.size(); ++k) {
+      if (!point_blocks[k]) continue;
+      const BaPointObservation& o = p.point_obs[k];
+      const Evaluation ev =
+          EvaluatePoint(camera, SE3FromParams(pose_params[o.pose].data()), p.points[o.point], o);
+      const double chi2_max = o.stereo ? options.point_chi2_stereo : options.point_chi2_mono;
+      summary.point_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
+    }
+    for (size_t k = 0; k < p.line_obs.size(); ++k) {
+      if (!line_blocks[k]) continue;
+      const BaLineObservation& o = p.line_obs[k];
+      const Evaluation ev = EvaluateLine(camera, SE3FromParams(pose_params[o.pose].data()),
+                                         p.line_P[o.line], p.line_Q[o.line], o);
+      const double chi2_max = o.stereo ? options.line_chi2_stereo : options.line_chi2_mono;
+      summary.line_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
+    }
+    summary.point_outliers =
+        static_cast<int>(std::count(summary.point_outlier.begin(), summary.point_outlier.end(), 1));
+    summary.line_outliers =
+        static_cast<int>(std::count(summary.line_outlier.begin(), summary.line_outlier.end(), 1));
+  };
+
+  ceres::Solver::Summary first;
+  ceres::Solve(solver, &ceres_problem, &first);
+  summary.initial_cost = first.initial_cost;
+  summary.final_cost = first.final_cost;
+  summary.iterations = static_cast<int>(first.iterations.size());
+  summary.success = first.IsSolutionUsable();
+  if (!summary.success) summary.message = first.message;
+  flag_outliers();
+  if (summary.success && options.second_pass &&
+      summary.point_outliers + summary.line_outliers > 0) {
+    for (size_t k = 0; k < point_blocks.size(); ++k)
+      if (point_blocks[k] && summary.point_outlier[k]) {
+        ceres_problem.RemoveResidualBlock(point_blocks[k]);
+        point_blocks[k] = nullptr;
+      }
+    for (size_t k = 0; k < line_blocks.size(); ++k)
+      if (line_blocks[k] && summary.line_outlier[k]) {
+        ceres_problem.RemoveResidualBlock(line_blocks[k]);
+        line_blocks[k] = nullptr;
+      }
+    ceres::Solver::Summary second;
+    ceres::Solve(solver, &ceres_problem, &second);
+    summary.final_cost = second.final_cost;
+    summary.iterations += static_cast<int>(second.iterations.size());
+    summary.success = second.IsSolutionUsable();
+    if (!summary.success) summary.message = second.message;
+    flag_outliers();
+  }
+  if (summary.success)
+    for (int i = 0; i < np; ++i)
+      if (pose_used[i] && !p.poses[i].fixed)
+        p.poses[i].T_w_c = SE3FromParams(pose_params[i].data()).inverse();
+  summary.solve_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return summary;
+}
+
+}  // namespace pl_slam
