@@ -41,7 +41,8 @@ BaSummary LocalBundleAdjustment(const Context& ctx, KeyframeId id) {
       for (LandmarkId lm : lk->point_landmarks) {
         if (lm == kNoId || point_index.count(lm)) continue;
         const auto p = map.PointLocked(lm);
-        if (!p) continue;
+        // A landmark seen once constrains nothing but itself: left out (cheaper solves).
+        if (!p || p->observations.size() < 2) continue;
         point_index[lm] = static_cast<int>(point_ids.size());
         point_ids.push_back(lm);
         problem.points.push_back(p->p_w);
@@ -51,7 +52,7 @@ BaSummary LocalBundleAdjustment(const Context& ctx, KeyframeId id) {
       for (LandmarkId lm : lk->line_landmarks) {
         if (lm == kNoId || line_index.count(lm)) continue;
         const auto l = map.LineLocked(lm);
-        if (!l) continue;
+        if (!l || l->observations.size() < 2) continue;
         line_index[lm] = static_cast<int>(line_ids.size());
         line_ids.push_back(lm);
         problem.line_P.push_back(l->P_w);

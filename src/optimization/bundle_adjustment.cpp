@@ -24,6 +24,8 @@ std::string BundleAdjustmentOptions::Validate() const {
   if (e.empty()) e = CheckRange("line_chi2_stereo", line_chi2_stereo, 0.0, 1e6, true);
   if (e.empty()) e = CheckRange("min_depth", min_depth, 0.0, 100.0);
   if (e.empty()) e = CheckRange("num_threads", num_threads, 1, 64);
+  if (e.empty() && schur != "sparse" && schur != "dense")
+    e = "schur='" + schur + "' must be sparse or dense";
   return e;
 }
 
@@ -92,6 +94,18 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
 
   // Pose blocks hold T_c_w (the costs project world points into the camera).
   std::vector<std::array<double, 7>> pose_params(np);
+  // Landmarks in one buffer, points then lines ([P_w; Q_w]): Ceres orders the blocks of an
+  // elimination group by address, so one allocation keeps the order (and with it every
+  // floating-point result) the same from run to run.
+  std::vector<double> landmark_params(3 * npt + 6 * nl);
+  double* const point_params = landmark_params.data();
+  double* const line_params = landmark_params.data() + 3 * npt;
+  for (int i = 0; i < npt; ++i)
+    std::copy(p.points[i].data(), p.points[i].data() + 3, point_params + 3 * i);
+  for (int i = 0; i < nl; ++i) {
+    std::copy(p.line_P[i].data(), p.line_P[i].data() + 3, line_params + 6 * i);
+    std::copy(p.line_Q[i].data(), p.line_Q[i].data() + 3, line_params + 6 * i + 3);
+  }
   for (int i = 0; i < np; ++i) SE3ToParams(p.poses[i].T_w_c.inverse(), pose_params[i].data());
   bool any_fixed = false;
   for (const BaPose& pose : p.poses) any_fixed |= pose.fixed;
@@ -119,7 +133,7 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
     const BaPointObservation& o = p.point_obs[k];
     if (o.pose < 0 || o.pose >= np || o.point < 0 || o.point >= npt) continue;
     use_pose(o.pose);
-    double* point = p.points[o.point].data();
+    double* point = point_params + 3 * o.point;
     ceres::CostFunction* cost;
     ceres::LossFunction* loss;
     if (o.stereo) {
@@ -136,8 +150,7 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
     const BaLineObservation& o = p.line_obs[k];
     if (o.pose < 0 || o.pose >= np || o.line < 0 || o.line >= nl) continue;
     use_pose(o.pose);
-    double* P = p.line_P[o.line].data();
-    double* Q = p.line_Q[o.line].data();
+    double* PQ = line_params + 6 * o.line;
     ceres::CostFunction* cost;
     ceres::LossFunction* loss;
     if (o.stereo) {
@@ -147,9 +160,8 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
       cost = new MonoLineCost(camera, o.l, o.l, o.sqrt_info);
       loss = new ceres::HuberLoss(huber_line_mono);
     }
-    line_blocks[k] = ceres_problem.AddResidualBlock(cost, loss, pose_params[o.pose].data(), P, Q);
-    if (!ordering->IsMember(P)) ordering->AddElementToGroup(P, 0);
-    if (!ordering->IsMember(Q)) ordering->AddElementToGroup(Q, 0);
+    line_blocks[k] = ceres_problem.AddResidualBlock(cost, loss, pose_params[o.pose].data(), PQ);
+    if (!ordering->IsMember(PQ)) ordering->AddElementToGroup(PQ, 0);
   }
   // The gauge: fixed poses, or the first used pose when the caller fixed none.
   for (int i = 0; i < np; ++i) {
@@ -165,7 +177,7 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   }
 
   ceres::Solver::Options solver;
-  solver.linear_solver_type = ceres::SPARSE_SCHUR;
+  solver.linear_solver_type = options.schur == "dense" ? ceres::DENSE_SCHUR : ceres::SPARSE_SCHUR;
   solver.sparse_linear_algebra_library_type = ceres::SUITE_SPARSE;
   solver.linear_solver_ordering = ordering;
   solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
@@ -180,15 +192,18 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
       if (!point_blocks[k]) continue;
       const BaPointObservation& o = p.point_obs[k];
       const Evaluation ev =
-          EvaluatePoint(camera, SE3FromParams(pose_params[o.pose].data()), p.points[o.point], o);
+          EvaluatePoint(camera, SE3FromParams(pose_params[o.pose].data()),
+                        Eigen::Map<const Eigen::Vector3d>(point_params + 3 * o.point), o);
       const double chi2_max = o.stereo ? options.point_chi2_stereo : options.point_chi2_mono;
       summary.point_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
     }
     for (size_t k = 0; k < p.line_obs.size(); ++k) {
       if (!line_blocks[k]) continue;
       const BaLineObservation& o = p.line_obs[k];
-      const Evaluation ev = EvaluateLine(camera, SE3FromParams(pose_params[o.pose].data()),
-                                         p.line_P[o.line], p.line_Q[o.line], o);
+      const Evaluation ev =
+          EvaluateLine(camera, SE3FromParams(pose_params[o.pose].data()),
+                       Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line),
+                       Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line + 3), o);
       const double chi2_max = o.stereo ? options.line_chi2_stereo : options.line_chi2_mono;
       summary.line_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
     }
@@ -225,6 +240,14 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
     summary.success = second.IsSolutionUsable();
     if (!summary.success) summary.message = second.message;
     flag_outliers();
+  }
+  if (summary.success) {
+    for (int i = 0; i < npt; ++i)
+      p.points[i] = Eigen::Map<const Eigen::Vector3d>(point_params + 3 * i);
+    for (int i = 0; i < nl; ++i) {
+      p.line_P[i] = Eigen::Map<const Eigen::Vector3d>(line_params + 6 * i);
+      p.line_Q[i] = Eigen::Map<const Eigen::Vector3d>(line_params + 6 * i + 3);
+    }
   }
   if (summary.success)
     for (int i = 0; i < np; ++i)

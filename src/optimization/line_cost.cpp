@@ -18,16 +18,15 @@ bool LineCost<kResiduals>::Evaluate(double const* const* parameters, double* res
   const SE3 T_c_w = SE3FromParams(parameters[0]);
   const Eigen::Matrix3d R = T_c_w.rotation();
   const Eigen::Vector3d X[2] = {T_c_w * Eigen::Map<const Eigen::Vector3d>(parameters[1]),
-                                T_c_w * Eigen::Map<const Eigen::Vector3d>(parameters[2])};
+                                T_c_w * Eigen::Map<const Eigen::Vector3d>(parameters[1] + 3)};
   Eigen::Map<Eigen::Matrix<double, kResiduals, 1>> r(residuals);
   using JPose = Eigen::Map<Eigen::Matrix<double, kResiduals, 7, Eigen::RowMajor>>;
-  using JPoint = Eigen::Map<Eigen::Matrix<double, kResiduals, 3, Eigen::RowMajor>>;
+  using JLine = Eigen::Map<Eigen::Matrix<double, kResiduals, 6, Eigen::RowMajor>>;
   if (!(X[0].z() > min_depth_ && X[1].z() > min_depth_)) {
     r.setZero();
     if (jacobians) {
       if (jacobians[0]) Eigen::Map<Eigen::VectorXd>(jacobians[0], kResiduals * 7).setZero();
-      if (jacobians[1]) Eigen::Map<Eigen::VectorXd>(jacobians[1], kResiduals * 3).setZero();
-      if (jacobians[2]) Eigen::Map<Eigen::VectorXd>(jacobians[2], kResiduals * 3).setZero();
+      if (jacobians[1]) Eigen::Map<Eigen::VectorXd>(jacobians[1], kResiduals * 6).setZero();
     }
     return true;
   }
@@ -62,10 +61,10 @@ bool LineCost<kResiduals>::Evaluate(double const* const* parameters, double* res
       J.template middleCols<3>(3) += -J_X[k] * Hat(X[k]);
     }
   }
-  for (int k = 0; k < 2; ++k) {
-    if (!jacobians[k + 1]) continue;
-    JPoint J(jacobians[k + 1]);
-    J = J_X[k] * R;
+  if (jacobians[1]) {
+    JLine J(jacobians[1]);
+    J.template leftCols<3>() = J_X[0] * R;
+    J.template rightCols<3>() = J_X[1] * R;
   }
   return true;
 }

@@ -176,6 +176,7 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.ba.line_chi2_stereo", &ba.line_chi2_stereo, "line outlier threshold, 4 dof");
   t.Add("mapping.ba.min_depth", &ba.min_depth, "observations closer than this (m) are outliers");
   t.Add("mapping.ba.num_threads", &ba.num_threads, "Ceres threads");
+  t.Add("mapping.ba.schur", &ba.schur, "reduced camera system solver: sparse or dense");
   t.Add("mapping.map.covisibility_min_shared", &mp.map.covisibility_min_shared,
         "covisibility edge: shared landmarks at least");
   t.Add("mapping.map.essential_min_shared", &mp.map.essential_min_shared,

@@ -19,7 +19,7 @@ namespace pl_slam {
 
 /// Options of SolveBundleAdjustment.
 struct BundleAdjustmentOptions {
-  int max_iterations = 10;           ///< Levenberg-Marquardt iterations per pass
+  int max_iterations = 5;            ///< Levenberg-Marquardt iterations per pass
   bool second_pass = true;           ///< re-optimise without the outliers of the first pass
   double point_chi2_mono = 5.991;    ///< outlier above this squared whitened residual, 2 dof (95 %)
   double point_chi2_stereo = 7.815;  ///< same, 3 dof
@@ -27,6 +27,9 @@ struct BundleAdjustmentOptions {
   double line_chi2_stereo = 9.488;   ///< lines, 4 dof
   double min_depth = 0.05;           ///< observations whose point is closer (m) are outliers
   int num_threads = 1;               ///< Ceres threads (tracking keeps the other core)
+  /// Schur complement solver for the reduced camera system: "sparse" (SuiteSparse Cholesky)
+  /// or "dense" (Eigen; can be faster for the few tens of keyframes of a local window).
+  std::string schur = "sparse";
   /// Empty when valid, else "key=value must be ..." naming the first bad key.
   std::string Validate() const;
 };

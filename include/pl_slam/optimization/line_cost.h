@@ -11,12 +11,13 @@ namespace pl_slam {
 /// Residual: signed pixel distances of the projected 3D endpoints P_w, Q_w to the observed
 /// infinite line l (l . (u, v, 1), l(0)^2 + l(1)^2 = 1) in the left image, scaled by
 /// sqrt_info; the stereo form adds the distances to the observed right-image line l_right.
-/// Parameter blocks: T_c_w (7, lifted left-perturbation Jacobian, see se3_manifold.h), P_w (3),
-/// Q_w (3). Endpoints below min_depth give zero residuals and Jacobians. The endpoints may
-/// slide along the 3D line without changing the residual; Levenberg-Marquardt's damping keeps
-/// that direction fixed in practice.
+/// Parameter blocks: T_c_w (7, lifted left-perturbation Jacobian, see se3_manifold.h) and the
+/// landmark [P_w; Q_w] (6: one block, so that landmarks stay independent for Schur elimination).
+/// Endpoints below min_depth give zero residuals and Jacobians. The endpoints may slide along the
+/// 3D line without changing the residual; Levenberg-Marquardt's damping keeps that direction fixed
+/// in practice.
 template <int kResiduals>
-class LineCost final : public ceres::SizedCostFunction<kResiduals, 7, 3, 3> {
+class LineCost final : public ceres::SizedCostFunction<kResiduals, 7, 6> {
   static_assert(kResiduals == 2 || kResiduals == 4, "2 (left image) or 4 (stereo) residuals");
 
  public:
