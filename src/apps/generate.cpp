@@ -18,6 +18,7 @@ constexpr char kUsage[] =
     "  --bag FILE            write a rosbag (/cam0/image_raw, /cam1/image_raw, camera_info,\n"
     "                        /ground_truth/pose)\n"
     "  --frames N            number of frames (default: the scene's own length)\n"
+    "  --loops K             room: go round the loop K times (default 1; length scales)\n"
     "  --rate HZ             frame rate (default 20)\n"
     "  --noise SIGMA         image noise, grey levels (default 2)\n"
     "  --seed S              random seed (default 1)\n"
@@ -26,7 +27,8 @@ constexpr char kUsage[] =
 
 int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(
-      argc, argv, {"scene", "euroc", "bag", "frames", "rate", "noise", "seed", "start-time"},
+      argc, argv,
+      {"scene", "euroc", "bag", "frames", "loops", "rate", "noise", "seed", "start-time"},
       {"exposure-change", "help"});
   if (cl.Has("help")) {
     std::cout << kUsage;
@@ -39,6 +41,7 @@ int Run(int argc, char** argv) {
   pl_slam::sim::SequenceOptions opt;
   opt.scene = pl_slam::sim::ParseSceneKind(cl.Get("scene", ""));
   opt.num_frames = cl.GetInt("frames", opt.num_frames);
+  opt.loops = cl.GetInt("loops", opt.loops);
   opt.rate_hz = cl.GetDouble("rate", opt.rate_hz);
   opt.noise_sigma = cl.GetDouble("noise", opt.noise_sigma);
   opt.seed = static_cast<uint64_t>(cl.GetInt("seed", static_cast<int>(opt.seed)));

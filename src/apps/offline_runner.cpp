@@ -104,6 +104,11 @@ int Run(int argc, char** argv) {
     std::cout << table.Describe();
     return 0;
   }
+  // The vocabulary: the package's by default, relative paths relative to the package.
+  if (options.loop.vocabulary.empty())
+    options.loop.vocabulary = std::string(PL_SLAM_PACKAGE_DIR) + "/vocabulary";
+  else if (options.loop.vocabulary[0] != '/')
+    options.loop.vocabulary = std::string(PL_SLAM_PACKAGE_DIR) + "/" + options.loop.vocabulary;
   const std::string invalid = options.Validate();
   if (!invalid.empty()) throw pl_slam::ConfigError(invalid);
   if (cl.positional().size() != 1) {
@@ -185,6 +190,15 @@ int Run(int argc, char** argv) {
               << " dropped), " << mc.points << " points, " << mc.lines << " lines; local BA median "
               << Percentile(ms.ba_ms, 0.5) << " ms, p95 " << Percentile(ms.ba_ms, 0.95)
               << " ms; keyframe mapping median " << Percentile(ms.keyframe_ms, 0.5) << " ms\n";
+    const pl_slam::LoopStats ls = system.loop_stats();
+    std::cout << "loops: " << ls.loops_detected << " detected, " << ls.loops_corrected
+              << " corrected, " << ls.candidates_verified << " candidates verified, "
+              << ls.relocalizations << " relocalisations; query median "
+              << Percentile(ls.query_ms, 0.5) << " ms, correction median "
+              << Percentile(ls.correction_ms, 0.5) << " ms\n";
+    for (const auto& l : ls.loops)
+      std::cout << "  loop: keyframe " << l.query << " -> " << l.candidate << " (" << l.inliers
+                << " inliers)\n";
   }
   return 0;
 }

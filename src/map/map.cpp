@@ -49,6 +49,39 @@ void Map::Clear() {
   ++version_;
 }
 
+MapContents Map::ExportLocked() const {
+  MapContents c;
+  for (const auto& [id, kf] : keyframes_) c.keyframes[id] = std::make_shared<Keyframe>(*kf);
+  for (const auto& [id, p] : points_) {
+    auto copy = std::make_shared<PointLandmark>(*p);
+    copy->descriptor = p->descriptor.clone();
+    c.points[id] = std::move(copy);
+  }
+  for (const auto& [id, l] : lines_) {
+    auto copy = std::make_shared<LineLandmark>(*l);
+    copy->descriptor = l->descriptor.clone();
+    c.lines[id] = std::move(copy);
+  }
+  c.culled = culled_;
+  c.next_landmark_id = next_landmark_id_;
+  c.keyframes_inserted = keyframes_inserted_;
+  c.culled_points = culled_points_;
+  c.culled_lines = culled_lines_;
+  return c;
+}
+
+void Map::ReplaceLocked(MapContents&& contents) {
+  keyframes_ = std::move(contents.keyframes);
+  points_ = std::move(contents.points);
+  lines_ = std::move(contents.lines);
+  culled_ = std::move(contents.culled);
+  next_landmark_id_ = std::max(next_landmark_id_, contents.next_landmark_id);
+  keyframes_inserted_ = contents.keyframes_inserted;
+  culled_points_ = contents.culled_points;
+  culled_lines_ = contents.culled_lines;
+  ++version_;
+}
+
 std::shared_ptr<Keyframe> Map::KeyframeLocked(KeyframeId id) const {
   auto it = keyframes_.find(id);
   return it == keyframes_.end() ? nullptr : it->second;
@@ -180,6 +213,51 @@ void Map::EraseLineLocked(LandmarkId lm_id) {
   lines_.erase(lm_id);
   ++culled_lines_;
   ++version_;
+}
+
+namespace {
+
+/// Moves the observations of `from` to `into` (both in `landmarks`), updating the keyframes'
+/// per-feature ids; observations in keyframes already observing `into` are dropped.
+template <typename Landmark, typename GetKeyframe, typename Slot>
+void MoveObservations(Landmark* from, Landmark* into, GetKeyframe get_keyframe, Slot slot) {
+  for (const auto& [kf_id, index] : from->observations) {
+    const auto kf = get_keyframe(kf_id);
+    if (!kf) continue;
+    if (into->observations.count(kf_id)) {
+      slot(*kf)[index] = kNoId;
+      continue;
+    }
+    into->observations[kf_id] = index;
+    slot(*kf)[index] = into->id;
+  }
+  from->observations.clear();
+}
+
+}  // namespace
+
+bool Map::FusePointLocked(LandmarkId from, LandmarkId into) {
+  const auto a = PointLocked(from), b = PointLocked(into);
+  if (!a || !b || from == into) return false;
+  MoveObservations(
+      a.get(), b.get(), [this](KeyframeId k) { return KeyframeLocked(k); },
+      [](Keyframe& kf) -> std::vector<LandmarkId>& { return kf.point_landmarks; });
+  points_.erase(from);
+  ++culled_points_;
+  ++version_;
+  return true;
+}
+
+bool Map::FuseLineLocked(LandmarkId from, LandmarkId into) {
+  const auto a = LineLocked(from), b = LineLocked(into);
+  if (!a || !b || from == into) return false;
+  MoveObservations(
+      a.get(), b.get(), [this](KeyframeId k) { return KeyframeLocked(k); },
+      [](Keyframe& kf) -> std::vector<LandmarkId>& { return kf.line_landmarks; });
+  lines_.erase(from);
+  ++culled_lines_;
+  ++version_;
+  return true;
 }
 
 void Map::EraseKeyframeLocked(KeyframeId id) {

@@ -1,5 +1,6 @@
 #include "pl_slam/mapping/local_mapper.h"
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -44,6 +45,26 @@ struct LocalMapper::Impl {
   bool stop = false;
   MappingStats stats;
   std::thread thread;
+  std::atomic<LoopCloser*> loop{nullptr};
+  PoseGraphOptions pose_graph;
+  double loop_edge_weight = 1.0;
+  std::atomic<int> corrections{0};
+
+  /// Corrects the loops the loop closer has verified (mapping thread, between keyframes).
+  void CorrectPendingLoops() {
+    LoopCloser* const closer = loop.load();
+    if (!closer) return;
+    LoopDetection detection;
+    while (closer->TakeDetection(&detection)) {
+      const auto t0 = std::chrono::steady_clock::now();
+      if (mapping::CorrectLoop(ctx, detection, pose_graph, loop_edge_weight)) {
+        closer->OnCorrected(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
+                .count());
+        ++corrections;
+      }
+    }
+  }
 
   void Process(KeyframeInput* input) {
     const auto t0 = std::chrono::steady_clock::now();
@@ -51,6 +72,10 @@ struct LocalMapper::Impl {
     mapping::InsertKeyframe(ctx, input);
     const BaSummary ba = mapping::LocalBundleAdjustment(ctx, id);
     const int culled = mapping::Cull(ctx, id);
+    if (LoopCloser* const closer = loop.load()) {
+      closer->OnKeyframe(id);
+      CorrectPendingLoops();
+    }
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
     std::lock_guard<std::mutex> lock(mutex);
@@ -65,8 +90,23 @@ struct LocalMapper::Impl {
   void Run() {
     std::unique_lock<std::mutex> lock(mutex);
     while (true) {
-      work_cv.wait(lock, [this] { return stop || !queue.empty(); });
+      // Wakes up now and then to correct loops verified while no keyframe came.
+      work_cv.wait_for(lock, std::chrono::milliseconds(50),
+                       [this] { return stop || !queue.empty(); });
       if (stop) break;
+      if (queue.empty()) {
+        busy = true;
+        lock.unlock();
+        try {
+          CorrectPendingLoops();
+        } catch (const std::exception& e) {
+          PL_LOG_ERROR("loop correction failed: " << e.what());
+        }
+        lock.lock();
+        busy = false;
+        idle_cv.notify_all();
+        continue;
+      }
       KeyframeInput input = std::move(queue.front());
       queue.pop_front();
       busy = true;
@@ -136,6 +176,16 @@ void LocalMapper::Clear() {
   impl_->queue.clear();
   impl_->idle_cv.wait(lock, [this] { return impl_->stop || !impl_->busy; });
 }
+
+void LocalMapper::SetLoopCloser(LoopCloser* loop, const PoseGraphOptions& pose_graph,
+                                double loop_edge_weight) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->loop.store(loop);
+  impl_->pose_graph = pose_graph;
+  impl_->loop_edge_weight = loop_edge_weight;
+}
+
+int LocalMapper::loop_corrections() const { return impl_->corrections.load(); }
 
 MappingStats LocalMapper::stats() const {
   std::lock_guard<std::mutex> lock(impl_->mutex);

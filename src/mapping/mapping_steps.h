@@ -6,6 +6,7 @@
 
 #include "pl_slam/camera/stereo_camera.h"
 #include "pl_slam/map/map.h"
+#include "pl_slam/loop/loop_closer.h"
 #include "pl_slam/mapping/local_mapper.h"
 #include "pl_slam/optimization/bundle_adjustment.h"
 
@@ -31,6 +32,11 @@ BaSummary LocalBundleAdjustment(const Context& ctx, KeyframeId id);
 /// Removes landmarks that were not re-observed and keyframes whose landmarks are seen by
 /// enough others; returns the number of keyframes culled.
 int Cull(const Context& ctx, KeyframeId id);
+
+/// Corrects the map after a verified loop (pose graph over the essential graph, landmarks
+/// moved with their reference keyframes, duplicates fused); false when it could not.
+bool CorrectLoop(const Context& ctx, const LoopDetection& loop, const PoseGraphOptions& options,
+                 double loop_edge_weight);
 
 /// 1 / sigma of a point observation at `octave`.
 inline double PointSqrtInfo(const Context& ctx, int octave) {

@@ -9,6 +9,7 @@
 #include <sensor_msgs/Image.h>
 #include <sensor_msgs/image_encodings.h>
 
+#include "pl_slam/ros/camera_info_rectifier.h"
 #include "pl_slam/ros/conversions.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
@@ -63,7 +64,9 @@ BagStereoSource::BagStereoSource(const std::string& path, const BagTopics& topic
       if (!left || !right)
         throw InputError(path + ": camera_info topics hold no sensor_msgs/CameraInfo");
       try {
-        camera_ = StereoCameraFromInfo(*left, *right);
+        // Raw bags (distorted images, camera_info with D, R) are rectified while reading.
+        rectifier_ = std::make_unique<StereoInfoRectifier>(*left, *right);
+        camera_ = rectifier_->camera();
       } catch (const InputError& e) {
         throw InputError(path + ": " + e.what());
       }
@@ -120,8 +123,17 @@ bool BagStereoSource::Next(StereoFrame* frame) {
       }
       frame->stamp_ns = stamp;
       frame->index = next_index_++;
-      frame->left = is_left ? mono : match->second;
-      frame->right = is_left ? match->second : mono;
+      const cv::Mat left = is_left ? mono : match->second;
+      const cv::Mat right = is_left ? match->second : mono;
+      frame->left = left;
+      frame->right = right;
+      if (rectifier_) {
+        try {
+          rectifier_->Rectify(left, right, &frame->left, &frame->right);
+        } catch (const InputError& e) {
+          throw InputError(path_ + ": frame at " + std::to_string(stamp) + " ns: " + e.what());
+        }
+      }
       // Drop older unmatched partners: they can no longer find a pair.
       unpaired_ += static_cast<int>(std::distance(other.begin(), match));
       other.erase(other.begin(), std::next(match));
@@ -136,17 +148,27 @@ bool BagStereoSource::Next(StereoFrame* frame) {
 StereoBagWriter::StereoBagWriter(const std::string& path, const StereoCamera& camera,
                                  const BagTopics& topics, const std::string& left_frame,
                                  const std::string& right_frame)
+    : path_(path), tmp_path_(path + ".tmp"), topics_(topics) {
+  StereoCameraToInfo(camera, left_frame, right_frame, &left_info_, &right_info_);
+  Open();
+}
+
+StereoBagWriter::StereoBagWriter(const std::string& path, const sensor_msgs::CameraInfo& left_info,
+                                 const sensor_msgs::CameraInfo& right_info, const BagTopics& topics)
     : path_(path),
       tmp_path_(path + ".tmp"),
-      camera_(camera),
-      topics_(topics),
-      left_frame_(left_frame),
-      right_frame_(right_frame) {
+      left_info_(left_info),
+      right_info_(right_info),
+      topics_(topics) {
+  Open();
+}
+
+void StereoBagWriter::Open() {
   try {
     bag_.open(tmp_path_, rosbag::bagmode::Write);
     bag_.setCompression(rosbag::compression::Uncompressed);
   } catch (const rosbag::BagException& e) {
-    throw InputError(path + ": cannot create bag (" + e.what() + ")");
+    throw InputError(path_ + ": cannot create bag (" + e.what() + ")");
   }
   open_ = true;
 }
@@ -164,14 +186,18 @@ StereoBagWriter::~StereoBagWriter() {
 
 void StereoBagWriter::Write(const StereoFrame& frame) {
   const ros::Time stamp = FromNanoseconds(frame.stamp_ns);
-  sensor_msgs::CameraInfo left_info, right_info;
-  StereoCameraToInfo(camera_, left_frame_, right_frame_, &left_info, &right_info);
+  if (stamp.isZero()) {
+    throw InputError(path_ + ": frame " + std::to_string(frame.index) +
+                     " has stamp 0, which ROS reads as 'unset' (offset the stamps)");
+  }
+  sensor_msgs::CameraInfo left_info = left_info_, right_info = right_info_;
   left_info.header.stamp = right_info.header.stamp = stamp;
+  left_info.header.seq = right_info.header.seq = static_cast<uint32_t>(frame.index);
   for (int side = 0; side < 2; ++side) {
     const cv::Mat& img = side == 0 ? frame.left : frame.right;
     sensor_msgs::Image msg;
     msg.header.stamp = stamp;
-    msg.header.frame_id = side == 0 ? left_frame_ : right_frame_;
+    msg.header.frame_id = side == 0 ? left_info_.header.frame_id : right_info_.header.frame_id;
     msg.header.seq = static_cast<uint32_t>(frame.index);
     msg.height = static_cast<uint32_t>(img.rows);
     msg.width = static_cast<uint32_t>(img.cols);

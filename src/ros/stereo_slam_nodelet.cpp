@@ -36,6 +36,12 @@ std::string NodeletOptions::Validate() const {
     os << "sync_tolerance=" << sync_tolerance << " must be in (0, 1] s";
   else if (queue_size < 1 || queue_size > 100)
     os << "queue_size=" << queue_size << " must be in [1, 100]";
+  else if (!(input_warning_period >= 0.1 && input_warning_period <= 3600.0))
+    os << "input_warning_period=" << input_warning_period << " must be in [0.1, 3600] s";
+  else if (!use_camera_info && !camera.Validate().empty())
+    os << "camera.*: " << camera.Validate()
+       << " (use_camera_info is false, so camera.fx, camera.fy, camera.cx, camera.cy, "
+          "camera.baseline, camera.width and camera.height must describe the rectified pair)";
   else
     os << system.Validate();
   return os.str();
@@ -83,8 +89,11 @@ geometry_msgs::TransformStamped ToTransformMsg(const SE3& T, const ros::Time& st
 StereoSlamNodelet::~StereoSlamNodelet() {
   // Inputs first: no callback may post into the mailbox once teardown has started (the
   // subscribers are declared before the mailbox, so they would otherwise outlive it).
+  input_check_timer_.stop();
   exact_sync_.reset();
   approx_sync_.reset();
+  exact_images_sync_.reset();
+  approx_images_sync_.reset();
   left_sub_.unsubscribe();
   right_sub_.unsubscribe();
   left_info_sub_.unsubscribe();
@@ -107,6 +116,21 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
   table.Add("sync_tolerance", &o->sync_tolerance,
             "largest stamp difference with approximate sync, seconds");
   table.Add("queue_size", &o->queue_size, "subscriber and synchroniser queue length");
+  table.Add("use_camera_info", &o->use_camera_info,
+            "calibration from the camera_info topics (raw images rectified from K, D, R, P); "
+            "false = from camera.*");
+  table.Add("images_rectified", &o->images_rectified,
+            "images are rectified already whatever camera_info's D and R say (no remap)");
+  table.Add("camera.fx", &o->camera.fx, "rectified focal length x, px (use_camera_info false)");
+  table.Add("camera.fy", &o->camera.fy, "rectified focal length y, px (use_camera_info false)");
+  table.Add("camera.cx", &o->camera.cx, "rectified principal point x, px (use_camera_info false)");
+  table.Add("camera.cy", &o->camera.cy, "rectified principal point y, px (use_camera_info false)");
+  table.Add("camera.baseline", &o->camera.baseline,
+            "stereo baseline, m, right camera on the left's +x (use_camera_info false)");
+  table.Add("camera.width", &o->camera.width, "image width, px (use_camera_info false)");
+  table.Add("camera.height", &o->camera.height, "image height, px (use_camera_info false)");
+  table.Add("input_warning_period", &o->input_warning_period,
+            "seconds between warnings about the same kind of bad input");
   return table;
 }
 
@@ -201,48 +225,180 @@ void StereoSlamNodelet::onInit() {
                       image_transport::TransportHints("raw", ros::TransportHints(), pnh));
   right_sub_.subscribe(*it_, "right/image", q,
                        image_transport::TransportHints("raw", ros::TransportHints(), pnh));
-  left_info_sub_.subscribe(nh, "left/camera_info", q);
-  right_info_sub_.subscribe(nh, "right/camera_info", q);
-  if (options_.approximate_sync) {
-    approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
-        ApproxPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
-    approx_sync_->setMaxIntervalDuration(ros::Duration(options_.sync_tolerance));
-    approx_sync_->registerCallback(boost::bind(&StereoSlamNodelet::StereoCallback, this,
-                                               boost::placeholders::_1, boost::placeholders::_2,
-                                               boost::placeholders::_3, boost::placeholders::_4));
+  // Counted before synchronisation, so CheckInputs can tell why no pair forms.
+  left_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr&) { ++left_seen_; });
+  right_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr&) { ++right_seen_; });
+  using boost::placeholders::_1;
+  using boost::placeholders::_2;
+  using boost::placeholders::_3;
+  using boost::placeholders::_4;
+  if (options_.use_camera_info) {
+    left_info_sub_.subscribe(nh, "left/camera_info", q);
+    right_info_sub_.subscribe(nh, "right/camera_info", q);
+    left_info_sub_.registerCallback(
+        [this](const sensor_msgs::CameraInfoConstPtr&) { ++left_info_seen_; });
+    right_info_sub_.registerCallback(
+        [this](const sensor_msgs::CameraInfoConstPtr&) { ++right_info_seen_; });
+    if (options_.approximate_sync) {
+      approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
+          ApproxPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
+      approx_sync_->setMaxIntervalDuration(ros::Duration(options_.sync_tolerance));
+      approx_sync_->registerCallback(
+          boost::bind(&StereoSlamNodelet::StereoCallback, this, _1, _2, _3, _4));
+    } else {
+      exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
+          ExactPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
+      exact_sync_->registerCallback(
+          boost::bind(&StereoSlamNodelet::StereoCallback, this, _1, _2, _3, _4));
+    }
+    NODELET_INFO("pl_slam: waiting for %s, %s and their camera_info (%s, %s)",
+                 left_sub_.getTopic().c_str(), right_sub_.getTopic().c_str(),
+                 left_info_sub_.getTopic().c_str(), right_info_sub_.getTopic().c_str());
   } else {
-    exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-        ExactPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
-    exact_sync_->registerCallback(boost::bind(&StereoSlamNodelet::StereoCallback, this,
-                                              boost::placeholders::_1, boost::placeholders::_2,
-                                              boost::placeholders::_3, boost::placeholders::_4));
+    // Calibration from the parameters: the same rectifier type, built once from the rectified
+    // camera_info pair that describes camera.* (no remap).
+    sensor_msgs::CameraInfo left_info, right_info;
+    StereoCameraToInfo(options_.camera, "", "", &left_info, &right_info);
+    rectifier_ = std::make_shared<StereoInfoRectifier>(left_info, right_info);
+    if (options_.approximate_sync) {
+      approx_images_sync_ = std::make_unique<message_filters::Synchronizer<ApproxImagesPolicy>>(
+          ApproxImagesPolicy(q), left_sub_, right_sub_);
+      approx_images_sync_->setMaxIntervalDuration(ros::Duration(options_.sync_tolerance));
+      approx_images_sync_->registerCallback(
+          boost::bind(&StereoSlamNodelet::ImagesCallback, this, _1, _2));
+    } else {
+      exact_images_sync_ = std::make_unique<message_filters::Synchronizer<ExactImagesPolicy>>(
+          ExactImagesPolicy(q), left_sub_, right_sub_);
+      exact_images_sync_->registerCallback(
+          boost::bind(&StereoSlamNodelet::ImagesCallback, this, _1, _2));
+    }
+    NODELET_INFO("pl_slam: waiting for %s and %s; calibration from parameters: %s",
+                 left_sub_.getTopic().c_str(), right_sub_.getTopic().c_str(),
+                 rectifier_->Describe().c_str());
   }
-  NODELET_INFO("pl_slam: waiting for %s, %s and their camera_info", left_sub_.getTopic().c_str(),
-               right_sub_.getTopic().c_str());
+  input_check_timer_ = pnh.createWallTimer(ros::WallDuration(options_.input_warning_period),
+                                           &StereoSlamNodelet::CheckInputs, this);
+}
+
+void StereoSlamNodelet::RejectInput(const std::string& kind, const std::string& message) {
+  ++rejected_;
+  const ros::WallTime now = ros::WallTime::now();
+  {
+    std::lock_guard<std::mutex> lock(warn_mutex_);
+    auto it = last_warning_.find(kind);
+    if (it != last_warning_.end() && (now - it->second).toSec() < options_.input_warning_period)
+      return;
+    last_warning_[kind] = now;
+  }
+  NODELET_WARN(
+      "pl_slam: %s (%u pairs refused so far; repeats of this warning are held back "
+      "for %.1f s)",
+      message.c_str(), rejected_.load(), options_.input_warning_period);
+}
+
+void StereoSlamNodelet::CheckInputs(const ros::WallTimerEvent&) {
+  const uint32_t left = left_seen_.exchange(0), right = right_seen_.exchange(0);
+  const uint32_t left_info = left_info_seen_.exchange(0), right_info = right_info_seen_.exchange(0);
+  const uint32_t pairs = pairs_seen_.exchange(0);
+  if (left + right == 0 || pairs > 0) return;
+  std::ostringstream os;
+  os << "no synchronised stereo pair in the last " << options_.input_warning_period
+     << " s although images arrive (" << left << " on " << left_sub_.getTopic() << ", " << right
+     << " on " << right_sub_.getTopic();
+  if (options_.use_camera_info) {
+    os << "; camera_info: " << left_info << " on " << left_info_sub_.getTopic() << ", "
+       << right_info << " on " << right_info_sub_.getTopic();
+  }
+  os << "): ";
+  if (left == 0 || right == 0) {
+    os << "one image topic is silent; check the remapping of left/image and right/image";
+  } else if (options_.use_camera_info && (left_info == 0 || right_info == 0)) {
+    os << "camera_info is missing; remap left/camera_info and right/camera_info, or set "
+          "use_camera_info: false and the camera.* calibration";
+  } else if (!options_.approximate_sync) {
+    os << "their header stamps differ; exact sync needs identical stamps (set "
+          "approximate_sync: true and sync_tolerance)";
+  } else {
+    os << "their header stamps differ by more than sync_tolerance=" << options_.sync_tolerance
+       << " s";
+  }
+  NODELET_WARN("pl_slam: %s", os.str().c_str());
 }
 
 void StereoSlamNodelet::StereoCallback(const sensor_msgs::ImageConstPtr& left,
                                        const sensor_msgs::CameraInfoConstPtr& left_info,
                                        const sensor_msgs::ImageConstPtr& right,
                                        const sensor_msgs::CameraInfoConstPtr& right_info) {
+  ++pairs_seen_;
+  std::shared_ptr<const StereoInfoRectifier> rectifier;
+  std::string error;
+  {
+    std::lock_guard<std::mutex> lock(input_mutex_);
+    if (!rectifier_ || !rectifier_->SameCalibration(*left_info, *right_info)) {
+      // Computed once per calibration (remap tables), again only when camera_info changes.
+      try {
+        auto fresh = std::make_shared<const StereoInfoRectifier>(*left_info, *right_info,
+                                                                 options_.images_rectified);
+        if (rectifier_) {
+          NODELET_WARN("pl_slam: camera_info changed; rectification recomputed: %s",
+                       fresh->Describe().c_str());
+        } else {
+          NODELET_INFO("pl_slam: calibration from camera_info: %s", fresh->Describe().c_str());
+        }
+        rectifier_ = fresh;
+      } catch (const InputError& e) {
+        error = e.what();
+      }
+    }
+    if (error.empty()) rectifier = rectifier_;
+  }
+  if (!error.empty()) {
+    std::ostringstream os;
+    os << "stereo pair at " << std::fixed << std::setprecision(3) << left->header.stamp.toSec()
+       << " ignored: " << error;
+    RejectInput("camera_info", os.str());
+    return;
+  }
+  Enqueue(*left, *right, rectifier);
+}
+
+void StereoSlamNodelet::ImagesCallback(const sensor_msgs::ImageConstPtr& left,
+                                       const sensor_msgs::ImageConstPtr& right) {
+  ++pairs_seen_;
+  std::shared_ptr<const StereoInfoRectifier> rectifier;
+  {
+    std::lock_guard<std::mutex> lock(input_mutex_);
+    rectifier = rectifier_;
+  }
+  Enqueue(*left, *right, rectifier);
+}
+
+void StereoSlamNodelet::Enqueue(const sensor_msgs::Image& left, const sensor_msgs::Image& right,
+                                const std::shared_ptr<const StereoInfoRectifier>& rectifier) {
+  std::ostringstream where;
+  where << "stereo pair at " << std::fixed << std::setprecision(3) << left.header.stamp.toSec()
+        << " ignored: ";
   Pending p;
   try {
-    p.camera = StereoCameraFromInfo(*left_info, *right_info);
-    p.frame.left = ImageToMono8(*left);
-    p.frame.right = ImageToMono8(*right);
+    p.frame.left = ImageToMono8(left);
+    p.frame.right = ImageToMono8(right);
   } catch (const InputError& e) {
-    NODELET_WARN_THROTTLE(5.0, "pl_slam: stereo pair at %.3f ignored: %s",
-                          left->header.stamp.toSec(), e.what());
+    RejectInput("image", where.str() + e.what());
     return;
   }
-  if (p.frame.left.size() != p.frame.right.size()) {
-    NODELET_WARN_THROTTLE(5.0, "pl_slam: stereo pair ignored: left %dx%d and right %dx%d differ",
-                          p.frame.left.cols, p.frame.left.rows, p.frame.right.cols,
-                          p.frame.right.rows);
+  const StereoCamera& cam = rectifier->camera();
+  if (p.frame.left.size() != p.frame.right.size() || p.frame.left.cols != cam.width ||
+      p.frame.left.rows != cam.height) {
+    std::ostringstream os;
+    os << where.str() << "left " << p.frame.left.cols << "x" << p.frame.left.rows << " and right "
+       << p.frame.right.cols << "x" << p.frame.right.rows << " images, calibration " << cam.width
+       << "x" << cam.height << " (all three must be equal)";
+    RejectInput("size", os.str());
     return;
   }
-  p.frame.stamp_ns = ToNanoseconds(left->header.stamp);
-  p.header = left->header;
+  p.frame.stamp_ns = ToNanoseconds(left.header.stamp);
+  p.header = left.header;
+  p.rectifier = rectifier;
   {
     std::lock_guard<std::mutex> lock(mailbox_mutex_);
     if (mailbox_) ++dropped_;  // the worker is behind: the newest frame replaces the old one
@@ -250,6 +406,16 @@ void StereoSlamNodelet::StereoCallback(const sensor_msgs::ImageConstPtr& left,
   }
   mailbox_cv_.notify_one();
 }
+
+namespace {
+
+bool SameCamera(const StereoCamera& a, const StereoCamera& b) {
+  return a.width == b.width && a.height == b.height && std::abs(a.fx - b.fx) <= 1e-6 &&
+         std::abs(a.fy - b.fy) <= 1e-6 && std::abs(a.cx - b.cx) <= 1e-6 &&
+         std::abs(a.cy - b.cy) <= 1e-6 && std::abs(a.baseline - b.baseline) <= 1e-9;
+}
+
+}  // namespace
 
 void StereoSlamNodelet::WorkerLoop() {
   while (!stop_) {
@@ -261,30 +427,45 @@ void StereoSlamNodelet::WorkerLoop() {
       p = std::move(*mailbox_);
       mailbox_.reset();
     }
+    // Rectify here rather than in the callback: frames the worker drops cost no remap.
+    StereoFrame frame;
+    frame.stamp_ns = p.frame.stamp_ns;
+    try {
+      p.rectifier->Rectify(p.frame.left, p.frame.right, &frame.left, &frame.right);
+    } catch (const InputError& e) {
+      RejectInput("size", std::string("stereo pair ignored: ") + e.what());
+      continue;
+    }
+    const StereoCamera& camera = p.rectifier->camera();
     std::lock_guard<std::mutex> lock(system_mutex_);
-    if (!system_ || p.camera.width != camera_.width || p.camera.height != camera_.height ||
-        std::abs(p.camera.fx - camera_.fx) > 1e-6 ||
-        std::abs(p.camera.baseline - camera_.baseline) > 1e-9) {
-      if (system_) NODELET_WARN("pl_slam: camera_info changed; starting a new map");
+    if (!system_ || !SameCamera(camera, camera_)) {
+      if (system_) NODELET_WARN("pl_slam: the rectified calibration changed; starting a new map");
       try {
-        system_ = std::make_unique<SlamSystem>(p.camera, options_.system);
+        system_ = std::make_unique<SlamSystem>(camera, options_.system);
       } catch (const std::exception& e) {
         NODELET_ERROR_THROTTLE(5.0, "pl_slam: cannot start the pipeline: %s", e.what());
         continue;
       }
-      camera_ = p.camera;
+      camera_ = camera;
       path_.poses.clear();
       last_stamp_ns_ = -1;
     }
-    if (last_stamp_ns_ >= 0 && p.frame.stamp_ns <= last_stamp_ns_) {
-      NODELET_WARN("pl_slam: image stamp went backwards (%.3f after %.3f, bag loop?); resetting",
-                   p.frame.stamp_ns * 1e-9, last_stamp_ns_ * 1e-9);
+    if (last_stamp_ns_ >= 0 && frame.stamp_ns == last_stamp_ns_) {
+      RejectInput("stamps", "stereo pair with the same stamp as the previous one skipped");
+      continue;
+    }
+    if (last_stamp_ns_ >= 0 && frame.stamp_ns < last_stamp_ns_) {
+      // Defined behaviour for a looping bag or a restarted camera clock: start a new map.
+      NODELET_WARN(
+          "pl_slam: image stamp went backwards (%.3f after %.3f, bag loop?); resetting "
+          "the map and the trajectory",
+          frame.stamp_ns * 1e-9, last_stamp_ns_ * 1e-9);
       system_->Reset();
       path_.poses.clear();
     }
-    last_stamp_ns_ = p.frame.stamp_ns;
-    p.frame.index = static_cast<int>(frames_processed_);
-    ProcessOne(p.frame, p.header);
+    last_stamp_ns_ = frame.stamp_ns;
+    frame.index = static_cast<int>(frames_processed_);
+    ProcessOne(frame, p.header);
   }
 }
 
@@ -301,9 +482,10 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     const std::string cam_frame =
         options_.camera_frame.empty() ? header.frame_id : options_.camera_frame;
     try {
-      // Looked up once, at the first frame, without blocking the worker for long.
+      // Looked up once, at the first frame; a static mount published at start-up may need a
+      // moment to reach the listener (frames arriving meanwhile are dropped, so keep it short).
       const auto tf = tf_buffer_->lookupTransform(options_.base_frame, cam_frame, ros::Time(0),
-                                                  ros::Duration(0.05));
+                                                  ros::Duration(0.2));
       const Eigen::Isometry3d T = tf2::transformToEigen(tf);
       T_base_cam_ = SE3(Eigen::Matrix3d(T.rotation()), Eigen::Vector3d(T.translation()));
       NODELET_INFO("pl_slam: camera mounting %s -> %s taken from TF", options_.base_frame.c_str(),
@@ -313,6 +495,9 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
       NODELET_INFO("pl_slam: no TF %s -> %s; the camera frame is taken as the base frame",
                    options_.base_frame.c_str(), cam_frame.c_str());
     }
+    // The mount is read once: stop listening, so /tf traffic costs nothing and our own
+    // broadcasts after a bag loop (older stamps) raise no TF_OLD_DATA warnings here.
+    tf_listener_.reset();
   }
   Publish(result, header);
 }
@@ -361,6 +546,7 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
   status.state_name = TrackingStateName(result.state);
   status.frame_index = frames_processed_;
   status.frames_dropped = dropped_.load();
+  status.frames_rejected = rejected_.load();
   status.points_detected = static_cast<uint32_t>(result.points_detected);
   status.lines_detected = static_cast<uint32_t>(result.lines_detected);
   status.point_inliers = static_cast<uint32_t>(result.point_inliers);

@@ -253,7 +253,7 @@ int AddBox(World* world, const Eigen::Vector3d& min_w, const Eigen::Vector3d& ma
 }
 
 Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_time_s,
-                 uint64_t world_seed) {
+                 uint64_t world_seed, int loops) {
   if (num_frames < 0) {
     throw ConfigError("num_frames=" + std::to_string(num_frames) + " must be >= 0");
   }
@@ -262,16 +262,18 @@ Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_ti
     os << "rate_hz=" << rate_hz << " must be a positive number";
     throw ConfigError(os.str());
   }
-  const int n = num_frames > 0 ? num_frames : DefaultNumFrames(kind);
+  loops = std::max(1, loops);
+  const int n =
+      num_frames > 0 ? num_frames : DefaultNumFrames(kind) * (kind == SceneKind::kRoom ? loops : 1);
   Scene scene;
   switch (kind) {
     case SceneKind::kRoom: {
       scene.world = BuildRoomWorld(world_seed);
       // The loop is stretched over the whole sequence and overshoots the start by 2 %, so
       // the final frames look at what the first ones saw from ~0.3 m further on.
-      scene.ground_truth = SampleTrajectory(n, rate_hz, start_time_s, [n](int i, double) {
+      scene.ground_truth = SampleTrajectory(n, rate_hz, start_time_s, [n, loops](int i, double) {
         const double frac = n > 1 ? static_cast<double>(i) / (n - 1) : 0.0;
-        return RoomLoopPose(-kPi / 2 + 2 * kPi * 1.02 * frac);
+        return RoomLoopPose(-kPi / 2 + 2 * kPi * (loops + 0.02) * frac);
       });
       break;
     }

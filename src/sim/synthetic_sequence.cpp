@@ -84,6 +84,7 @@ const std::vector<OptionField>& OptionFields() {
       {"scene", [](SequenceOptions* o, const std::string& v) { o->scene = ParseSceneKind(v); },
        [](const SequenceOptions& o) { return SceneKindName(o.scene); }},
       NumberField("num_frames", &SequenceOptions::num_frames),
+      NumberField("loops", &SequenceOptions::loops),
       NumberField("rate_hz", &SequenceOptions::rate_hz),
       NumberField("width", &SequenceOptions::width),
       NumberField("height", &SequenceOptions::height),
@@ -114,6 +115,7 @@ std::string SequenceOptions::Validate() const {
     if (first.empty()) first = error;
   };
   check(CheckRange("num_frames", num_frames, 0, 1000000));
+  check(CheckRange("loops", loops, 1, 1000));
   check(CheckRange("rate_hz", rate_hz, 0.0, 1000.0, true));
   check(CheckRange("width", width, 16, 8192));
   check(CheckRange("height", height, 16, 8192));
@@ -151,7 +153,7 @@ SyntheticSequence::SyntheticSequence(const SequenceOptions& options) : options_(
   const std::string bad = options_.Validate();
   if (!bad.empty()) throw ConfigError("synthetic sequence: " + bad);
   Scene scene = BuildScene(options_.scene, options_.num_frames, options_.rate_hz,
-                           options_.start_time_s, options_.world_seed);
+                           options_.start_time_s, options_.world_seed, options_.loops);
   world_ = std::move(scene.world);
   ground_truth_ = std::move(scene.ground_truth);
   Init();

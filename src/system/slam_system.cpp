@@ -28,6 +28,8 @@ std::string SystemOptions::Validate() const {
   if (!err.empty()) return "tracker." + err;
   err = mapping.Validate();
   if (!err.empty()) return "mapping." + err;
+  err = loop.Validate();
+  if (!err.empty()) return "loop." + err;
   return "";
 }
 
@@ -63,6 +65,7 @@ struct SlamSystem::Impl {
   SE3 T_w_c;
   // Mapping. Lock order: trajectory_mutex is a leaf; the map's lock is never taken inside it.
   std::unique_ptr<Map> map;
+  std::unique_ptr<LoopCloser> loop;  // destroyed after the mapper, which calls it
   std::unique_ptr<LocalMapper> mapper;
   MappingFrontEnd front_end;
   KeyframeId next_keyframe_id = 0;
@@ -94,13 +97,28 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const SystemOptions& options)
   impl_->tracker = std::make_unique<StereoTracker>(camera, options.tracker);
   impl_->front_end = FrontEndOf(options.tracker);
   impl_->map = std::make_unique<Map>(options.mapping.map);
-  if (options.mapping.enabled)
+  if (options.mapping.enabled) {
     impl_->mapper =
         std::make_unique<LocalMapper>(camera, options.mapping, impl_->front_end, impl_->map.get());
+    const LoopClosingOptions& lo = options.loop;
+    if ((lo.enabled || lo.relocalize) && lo.vocabulary.empty()) {
+      PL_LOG_WARN("loop.vocabulary is empty: loop closing and relocalisation are off");
+    } else if (lo.enabled || lo.relocalize) {
+      impl_->loop =
+          std::make_unique<LoopCloser>(camera, lo, impl_->map.get(), options.mapping.threaded);
+      if (lo.enabled)
+        impl_->mapper->SetLoopCloser(impl_->loop.get(), lo.pose_graph, lo.loop_edge_weight);
+    }
+  }
 }
 
 SlamSystem::~SlamSystem() {
-  impl_->mapper.reset();  // stops the mapping thread before the map goes
+  impl_->mapper.reset();  // stops the mapping thread before the loop closer and the map go
+  impl_->loop.reset();
+}
+
+LoopStats SlamSystem::loop_stats() const {
+  return impl_->loop ? impl_->loop->stats() : LoopStats();
 }
 
 const Map& SlamSystem::map() const { return *impl_->map; }
@@ -110,7 +128,12 @@ MappingStats SlamSystem::mapping_stats() const {
 }
 
 void SlamSystem::Flush() {
-  if (impl_->mapper) impl_->mapper->Flush();
+  if (!impl_->mapper) return;
+  impl_->mapper->Flush();
+  if (impl_->loop) {
+    impl_->loop->Flush();    // detection of the last keyframes
+    impl_->mapper->Flush();  // and the correction of what it found
+  }
 }
 
 const StereoCamera& SlamSystem::camera() const { return impl_->camera; }
@@ -118,6 +141,7 @@ const StereoCamera& SlamSystem::camera() const { return impl_->camera; }
 void SlamSystem::Reset() {
   Impl& s = *impl_;
   if (s.mapper) s.mapper->Clear();
+  if (s.loop) s.loop->Clear();
   s.map->Clear();
   s.local_map = LocalMap();
   s.reference = kNoId;
@@ -181,7 +205,36 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     return result;
   }
 
-  const TrackerResult r = s.tracker->Track(frame);
+  // Re-anchor to the reference keyframe: when bundle adjustment or a loop correction moved it,
+  // the camera moves with it, so tracking continues in the corrected map.
+  if (s.mapper && s.reference != kNoId) {
+    SE3 T_w_ref;
+    if (s.map->KeyframePose(s.reference, &T_w_ref) &&
+        !T_w_ref.matrix().isApprox(s.T_w_reference.matrix(), 1e-12)) {
+      s.T_w_c = T_w_ref * s.T_w_reference.inverse() * s.T_w_c;
+      s.T_w_reference = T_w_ref;
+      s.tracker->CorrectPose(s.T_w_c);
+    }
+  }
+
+  TrackerResult r = s.tracker->Track(frame);
+  if (!r.pose_valid && s.loop && s.options.loop.relocalize &&
+      r.points_stereo + r.lines_stereo > 0 && s.map->LastKeyframe() != kNoId) {
+    // Lost: look for the place in the map before restarting from the last pose.
+    SE3 T_w_c;
+    KeyframeId kf = kNoId;
+    if (s.loop->Relocalize(s.tracker->last_features(), &T_w_c, &kf)) {
+      s.tracker->Relocalized(T_w_c);
+      r.pose_valid = true;
+      r.state = TrackerState::kTracking;
+      r.T_w_c = T_w_c;
+      r.is_keyframe = false;
+      r.warning.clear();
+      result.relocalized = true;
+      if (s.map->KeyframePose(kf, &s.T_w_reference)) s.reference = kf;
+      PL_LOG_INFO("frame " << frame.index << ": relocalised against keyframe " << kf);
+    }
+  }
   const TrackingState previous = s.state;
   s.state = static_cast<TrackingState>(r.state);
   if (!r.warning.empty() &&
@@ -263,6 +316,7 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
       PL_LOG_DEBUG("frame " << frame.index << ": mapping busy, keyframe dropped");
     }
   }
+  result->loops = s.mapper->loop_corrections();
   const MapCounts counts = s.map->counts();
   result->keyframes = static_cast<int>(counts.keyframes);
   result->map_points = static_cast<int>(counts.points);

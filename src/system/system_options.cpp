@@ -181,6 +181,39 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "covisibility edge: shared landmarks at least");
   t.Add("mapping.map.essential_min_shared", &mp.map.essential_min_shared,
         "essential-graph edge: shared landmarks more than");
+  LoopClosingOptions& lc = options->loop;
+  t.Add("loop.enabled", &lc.enabled, "detect and close loops (needs the vocabulary)");
+  t.Add("loop.relocalize", &lc.relocalize, "relocalise in the map after tracking loss");
+  t.Add("loop.vocabulary", &lc.vocabulary,
+        "folder with orb.plvoc and lbd.plvoc; empty = the package's vocabulary/, relative = "
+        "relative to the package");
+  t.Add("loop.queue_size", &lc.queue_size, "keyframes waiting for loop detection");
+  t.Add("loop.min_keyframe_gap", &lc.min_keyframe_gap,
+        "loop candidates are at least this many keyframes older");
+  t.Add("loop.max_candidates", &lc.max_candidates, "database results examined per keyframe");
+  t.Add("loop.min_score", &lc.min_score, "smallest combined BoW score of a candidate");
+  t.Add("loop.min_normalized_score", &lc.min_normalized_score,
+        "candidate score / best covisible neighbour score, at least");
+  t.Add("loop.consistency", &lc.consistency,
+        "consecutive keyframes whose candidate groups must agree");
+  t.Add("loop.relocalize_candidates", &lc.relocalize_candidates,
+        "database results tried for relocalisation");
+  t.Add("loop.loop_edge_weight", &lc.loop_edge_weight,
+        "information of a loop edge relative to a pose-graph edge");
+  t.Add("loop.database.line_weight", &lc.database.line_weight,
+        "weight of a line relative to a point in the combined score");
+  t.Add("loop.verification.min_inliers", &lc.verification.min_inliers,
+        "point + line inliers a loop needs");
+  t.Add("loop.verification.min_inlier_ratio", &lc.verification.min_inlier_ratio,
+        "RANSAC inliers / descriptor matches, at least");
+  t.Add("loop.verification.max_translation_sigma", &lc.verification.max_translation_sigma,
+        "largest 1-sigma translation uncertainty of a loop, m");
+  t.Add("loop.verification.max_rotation_sigma_deg", &lc.verification.max_rotation_sigma_deg,
+        "largest 1-sigma rotation uncertainty of a loop, deg");
+  t.Add("loop.pose_graph.max_iterations", &lc.pose_graph.max_iterations,
+        "pose-graph Levenberg-Marquardt iterations");
+  t.Add("loop.pose_graph.rotation_weight", &lc.pose_graph.rotation_weight,
+        "pose-graph rotation residual weight relative to translation");
   return t;
 }
 

@@ -126,6 +126,17 @@ void StereoTracker::CorrectPose(const SE3& T_w_c) {
   if (T_w_c.IsFinite()) impl_->T_w_c = T_w_c;
 }
 
+void StereoTracker::Relocalized(const SE3& T_w_c) {
+  Impl& s = *impl_;
+  if (!T_w_c.IsFinite()) return;
+  s.T_w_c = T_w_c;
+  s.initialized = true;
+  s.state = TrackerState::kTracking;
+  s.velocity_valid = false;
+  s.selector.Reset();
+  s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
+}
+
 TrackerResult StereoTracker::Track(const StereoFrame& frame) {
   Impl& s = *impl_;
   TrackerResult result;

@@ -118,6 +118,20 @@ struct MapCounts {
   size_t culled_keyframes = 0, culled_points = 0, culled_lines = 0;
 };
 
+/// Everything a Map holds except its options and version: what a map file stores
+/// (map/map_io.h). Map::ExportLocked() fills it, Map::ReplaceLocked() installs it.
+struct MapContents {
+  std::map<KeyframeId, std::shared_ptr<Keyframe>> keyframes;
+  std::unordered_map<LandmarkId, std::shared_ptr<PointLandmark>> points;
+  std::unordered_map<LandmarkId, std::shared_ptr<LineLandmark>> lines;
+  /// Culled keyframe -> (parent at culling time, T_parent_kf), as in the Map.
+  std::unordered_map<KeyframeId, std::pair<KeyframeId, SE3>> culled;
+  LandmarkId next_landmark_id = 0;  ///< id the next point or line landmark gets
+  int keyframes_inserted = 0;       ///< keyframes inserted so far (ever)
+  size_t culled_points = 0;         ///< point landmarks erased so far (statistics)
+  size_t culled_lines = 0;          ///< line landmarks erased so far (statistics)
+};
+
 /// Graph thresholds of the map.
 struct MapOptions {
   int covisibility_min_shared = 20;  ///< covisibility edge: at least this many shared landmarks
@@ -172,6 +186,11 @@ class Map {
   /// Erases a landmark and its observations.
   void ErasePointLocked(LandmarkId lm);
   void EraseLineLocked(LandmarkId lm);
+  /// Merges landmark `from` into `into` (a duplicate found after a loop closure): every
+  /// observation of `from` in a keyframe that does not observe `into` yet moves over; `from`
+  /// is erased. False when either is missing or they are the same.
+  bool FusePointLocked(LandmarkId from, LandmarkId into);
+  bool FuseLineLocked(LandmarkId from, LandmarkId into);
   /// Erases a keyframe: its observations go, orphaned landmarks are freed, its children are
   /// re-parented to its parent, and its pose stays resolvable through KeyframePose().
   void EraseKeyframeLocked(KeyframeId id);
@@ -193,6 +212,13 @@ class Map {
   }
   /// Number of keyframes inserted so far (ever), the clock of landmark culling.
   int KeyframesInsertedLocked() const { return keyframes_inserted_; }
+  /// A copy of everything (for map files) that later changes to the map do not affect:
+  /// keyframes and landmarks are copied; keyframe feature matrices are shared, being immutable.
+  MapContents ExportLocked() const;
+  /// Replaces everything with `contents` in one step and bumps version(); the caller has
+  /// checked its consistency (LoadMap does). The landmark id counter never goes down, so ids
+  /// held from before the replacement do not alias new landmarks.
+  void ReplaceLocked(MapContents&& contents);
 
  private:
   bool KeyframePoseLocked(KeyframeId id, SE3* T_w_c) const;

@@ -22,6 +22,9 @@
 
 namespace pl_slam {
 
+class LoopCloser;
+struct PoseGraphOptions;
+
 /// Options of local mapping and of tracking against the local map.
 struct MappingOptions {
   bool enabled = true;   ///< build a map; off = visual odometry only
@@ -100,6 +103,12 @@ class LocalMapper {
   void Flush();
   /// Discards queued keyframes and waits for the one in progress (before a reset).
   void Clear();
+  /// Connects loop closing: every processed keyframe goes to `loop`, and its verified loops
+  /// are corrected here, between keyframes (local mapping is the map's only writer). Call
+  /// before the first Submit(); `loop` must outlive this mapper.
+  void SetLoopCloser(LoopCloser* loop, const PoseGraphOptions& pose_graph, double loop_edge_weight);
+  /// Incremented after every loop correction (trackers re-anchor to their reference keyframe).
+  int loop_corrections() const;
   MappingStats stats() const;
 
  private:

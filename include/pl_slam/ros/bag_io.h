@@ -9,8 +9,10 @@
 
 #include <rosbag/bag.h>
 #include <rosbag/view.h>
+#include <sensor_msgs/CameraInfo.h>
 
 #include "pl_slam/io/stereo_source.h"
+#include "pl_slam/ros/camera_info_rectifier.h"
 
 namespace pl_slam {
 namespace ros_layer {
@@ -27,7 +29,8 @@ struct BagTopics {
 
 /// A StereoSource over a bag: left/right images paired by identical header stamps, the
 /// rectified calibration from the first camera_info pair (or given), ground truth from the
-/// PoseStamped topic when present.
+/// PoseStamped topic when present. Raw images (camera_info with non-zero D, or R not the
+/// identity) are rectified from the first camera_info pair as they are read.
 class BagStereoSource : public StereoSource {
  public:
   /// Opens the bag. Throws InputError naming the bag and the problem (unreadable, topic
@@ -51,6 +54,7 @@ class BagStereoSource : public StereoSource {
   std::unique_ptr<rosbag::View> view_;
   rosbag::View::iterator it_;
   StereoCamera camera_;
+  std::unique_ptr<StereoInfoRectifier> rectifier_;  // null when the calibration was given
   Trajectory ground_truth_;
   std::size_t size_ = 0;
   int next_index_ = 0;
@@ -68,6 +72,10 @@ class StereoBagWriter {
   StereoBagWriter(const std::string& path, const StereoCamera& camera,
                   const BagTopics& topics = BagTopics(), const std::string& left_frame = "cam0",
                   const std::string& right_frame = "cam1");
+  /// Same, with the camera_info messages given as they are (e.g. a raw camera's K, D, R, P);
+  /// their frame_ids name the image frames, their stamps are replaced per frame.
+  StereoBagWriter(const std::string& path, const sensor_msgs::CameraInfo& left_info,
+                  const sensor_msgs::CameraInfo& right_info, const BagTopics& topics = BagTopics());
   ~StereoBagWriter();
 
   /// Appends one stereo pair (both images and camera_info stamped with frame.stamp_ns).
@@ -78,12 +86,12 @@ class StereoBagWriter {
   void Close();
 
  private:
+  void Open();
+
   std::string path_;
   std::string tmp_path_;
-  StereoCamera camera_;
+  sensor_msgs::CameraInfo left_info_, right_info_;
   BagTopics topics_;
-  std::string left_frame_;
-  std::string right_frame_;
   rosbag::Bag bag_;
   bool open_ = false;
 };

@@ -3,6 +3,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -26,6 +27,7 @@
 
 #include "pl_slam/SaveTrajectory.h"
 #include "pl_slam/io/stereo_frame.h"
+#include "pl_slam/ros/camera_info_rectifier.h"
 #include "pl_slam/system/slam_system.h"
 
 namespace pl_slam {
@@ -41,7 +43,18 @@ struct NodeletOptions {
   bool approximate_sync = false;         ///< ApproximateTime instead of ExactTime
   double sync_tolerance = 0.005;         ///< max stamp difference (s) with approximate sync
   int queue_size = 5;                    ///< subscriber and synchroniser queue length
-  SystemOptions system;                  ///< core pipeline options ("tracker.*" keys)
+  /// Calibration from the left/right camera_info topics (raw images are rectified from K, D,
+  /// R, P); false = no camera_info subscription, calibration from the camera.* keys.
+  bool use_camera_info = true;
+  /// The images are rectified already whatever camera_info's D and R say (image_rect topics
+  /// published with the raw camera_info): calibration from P only, no remap.
+  bool images_rectified = false;
+  /// "camera.*": rectified stereo calibration used when use_camera_info is false.
+  StereoCamera camera;
+  /// Seconds between two warnings about the same kind of bad input, and the period of the
+  /// check for images that never form a synchronised pair.
+  double input_warning_period = 5.0;
+  SystemOptions system;  ///< core pipeline options ("tracker.*" keys)
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
   std::string Validate() const;
@@ -51,8 +64,15 @@ struct NodeletOptions {
 OptionTable MakeNodeletOptionTable(NodeletOptions* options);
 
 /// Nodelet `pl_slam/StereoSlamNodelet`. Inputs: left/image, right/image (image_transport),
-/// left/camera_info, right/camera_info. Outputs (private namespace): odom, pose, path,
-/// status, TF. Services: save_trajectory, reset.
+/// left/camera_info, right/camera_info (unless use_camera_info is false). Outputs (private
+/// namespace): odom, pose, path, status, TF. Services: save_trajectory, reset.
+///
+/// Bad input never stops the nodelet: a pair with an unsupported encoding, sizes that differ
+/// or an unusable camera_info is refused with a throttled warning (one per kind of problem
+/// every input_warning_period s) and counted in status.frames_rejected; images that never
+/// form a synchronised pair (no camera_info, stamps that differ) are reported as often. A stamp
+/// older than the previous frame's (a looping bag) resets the map with a warning; a repeated stamp
+/// is skipped.
 class StereoSlamNodelet : public nodelet::Nodelet {
  public:
   StereoSlamNodelet() = default;
@@ -65,6 +85,17 @@ class StereoSlamNodelet : public nodelet::Nodelet {
                       const sensor_msgs::CameraInfoConstPtr& left_info,
                       const sensor_msgs::ImageConstPtr& right,
                       const sensor_msgs::CameraInfoConstPtr& right_info);
+  void ImagesCallback(const sensor_msgs::ImageConstPtr& left,
+                      const sensor_msgs::ImageConstPtr& right);
+  /// Converts a synchronised pair and posts it to the worker (or refuses it with a warning).
+  void Enqueue(const sensor_msgs::Image& left, const sensor_msgs::Image& right,
+               const std::shared_ptr<const StereoInfoRectifier>& rectifier);
+  /// Warns about bad input, at most once per `kind` every input_warning_period, and counts
+  /// the rejection.
+  void RejectInput(const std::string& kind, const std::string& message);
+  /// Periodic check: images arriving but no synchronised pair formed (missing camera_info,
+  /// unsynchronised stamps, a topic not remapped).
+  void CheckInputs(const ros::WallTimerEvent&);
   void WorkerLoop();
   void ProcessOne(const StereoFrame& frame, const std_msgs::Header& header);
   void Publish(const FrameResult& result, const std_msgs::Header& header);
@@ -78,6 +109,10 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   using ApproxPolicy =
       message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
                                                       sensor_msgs::Image, sensor_msgs::CameraInfo>;
+  using ExactImagesPolicy =
+      message_filters::sync_policies::ExactTime<sensor_msgs::Image, sensor_msgs::Image>;
+  using ApproxImagesPolicy =
+      message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image>;
 
   NodeletOptions options_;
   std::unique_ptr<image_transport::ImageTransport> it_;
@@ -85,25 +120,38 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   message_filters::Subscriber<sensor_msgs::CameraInfo> left_info_sub_, right_info_sub_;
   std::unique_ptr<message_filters::Synchronizer<ExactPolicy>> exact_sync_;
   std::unique_ptr<message_filters::Synchronizer<ApproxPolicy>> approx_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ExactImagesPolicy>> exact_images_sync_;
+  std::unique_ptr<message_filters::Synchronizer<ApproxImagesPolicy>> approx_images_sync_;
 
   ros::Publisher odom_pub_, pose_pub_, path_pub_, status_pub_;
   ros::ServiceServer save_srv_, reset_srv_;
+  ros::WallTimer input_check_timer_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
+
+  // Input side (subscriber callbacks). The rectifier is rebuilt only when camera_info changes.
+  std::mutex input_mutex_;
+  std::shared_ptr<const StereoInfoRectifier> rectifier_;
+  std::mutex warn_mutex_;  // guards last_warning_ only; never held with another lock
+  std::map<std::string, ros::WallTime> last_warning_;  // per kind of bad input
+  // Messages seen per input since the last CheckInputs, and pairs synchronised.
+  std::atomic<uint32_t> left_seen_{0}, right_seen_{0}, left_info_seen_{0}, right_info_seen_{0};
+  std::atomic<uint32_t> pairs_seen_{0};
 
   // Mailbox between the subscriber callback and the worker: one slot, the newest frame wins.
   // Lock order: mailbox_mutex_ is never held while system_mutex_ is taken or vice versa.
   std::mutex mailbox_mutex_;
   std::condition_variable mailbox_cv_;
   struct Pending {
-    StereoFrame frame;
+    StereoFrame frame;  // raw (not yet rectified) mono8 images
     std_msgs::Header header;
-    StereoCamera camera;
+    std::shared_ptr<const StereoInfoRectifier> rectifier;
   };
   std::optional<Pending> mailbox_;
   std::atomic<bool> stop_{false};
   std::atomic<uint32_t> dropped_{0};
+  std::atomic<uint32_t> rejected_{0};
   std::thread worker_;
 
   // Owned by the worker thread; services take system_mutex_ to reach it.

@@ -54,9 +54,11 @@ struct Scene {
 
 /// Builds scene `kind` with num_frames poses (0 = DefaultNumFrames) stamped start_time_s +
 /// i / rate_hz. world_seed drives the procedural textures and layout jitter. Throws
-/// ConfigError on num_frames < 0 or rate_hz <= 0.
+/// ConfigError on num_frames < 0 or rate_hz <= 0. `loops` > 1 sends the room's camera round
+/// its loop that many times (the default length scales with it; long-run and soak tests);
+/// the other scenes ignore it.
 Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_time_s,
-                 uint64_t world_seed);
+                 uint64_t world_seed, int loops = 1);
 
 /// Left-camera pose at world position p_w with the given attitude: yaw about world z
 /// (0 = optical axis along +x), pitch > 0 tilts the optical axis down, roll about it.

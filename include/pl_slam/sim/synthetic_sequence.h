@@ -18,6 +18,7 @@ namespace pl_slam::sim {
 struct SequenceOptions {
   SceneKind scene = SceneKind::kRoom;  ///< which built-in scene to render
   int num_frames = 0;                  ///< sequence length; 0 = the scene's default length
+  int loops = 1;                       ///< room: times round the loop (default length scales)
   double rate_hz = 20.0;               ///< frame rate; stamps are start_time_s + index / rate_hz
   int width = 752;                     ///< image width, pixels (EuRoC size)
   int height = 480;                    ///< image height, pixels

@@ -11,6 +11,7 @@
 #include "pl_slam/geometry/se3.h"
 #include "pl_slam/io/stereo_frame.h"
 #include "pl_slam/io/trajectory.h"
+#include "pl_slam/loop/loop_closer.h"
 #include "pl_slam/map/map.h"
 #include "pl_slam/mapping/local_mapper.h"
 #include "pl_slam/tracking/stereo_tracker.h"
@@ -26,8 +27,9 @@ const char* TrackingStateName(TrackingState state);
 
 /// Options of the whole system (one nested struct per module).
 struct SystemOptions {
-  TrackerOptions tracker;  ///< "tracker.*": front end (features, matching, motion, keyframes)
-  MappingOptions mapping;  ///< "mapping.*": map, local mapping, local BA, local-map tracking
+  TrackerOptions tracker;   ///< "tracker.*": front end (features, matching, motion, keyframes)
+  MappingOptions mapping;   ///< "mapping.*": map, local mapping, local BA, local-map tracking
+  LoopClosingOptions loop;  ///< "loop.*": loop closing and relocalisation
 
   /// Empty when valid, else "key=value: allowed range" naming the first bad key.
   std::string Validate() const;
@@ -50,6 +52,8 @@ struct FrameResult {
   int point_inliers = 0;
   int line_inliers = 0;
   bool map_tracked = false;   ///< the pose was refined against the local map
+  bool relocalized = false;   ///< tracking was recovered in the map by relocalisation
+  int loops = 0;              ///< loops closed so far
   int map_point_inliers = 0;  ///< local-map inliers (points)
   int map_line_inliers = 0;   ///< local-map inliers (lines)
   int keyframes = 0;          ///< keyframes in the map
@@ -87,6 +91,9 @@ class SlamSystem {
 
   /// Counters and timings of local mapping (zeros when mapping is off).
   MappingStats mapping_stats() const;
+
+  /// Counters and timings of loop closing (zeros when it is off).
+  LoopStats loop_stats() const;
 
   /// Forgets everything: the next frame starts a new map at the identity.
   void Reset();

@@ -84,6 +84,10 @@ class StereoTracker {
   /// prior (velocity) and the keyframe chain are kept.
   void CorrectPose(const SE3& T_w_c);
 
+  /// After relocalisation: the last frame (the one just tracked) is at T_w_c in the map;
+  /// tracking resumes from it (state TRACKING, no motion prior, a new keyframe chain).
+  void Relocalized(const SE3& T_w_c);
+
   /// Features of the last frame (for the debug image and the map).
   const StereoFeatures& last_features() const;
 
