@@ -288,6 +288,21 @@ void LoopCloser::Flush() {
                       [this] { return impl_->stop || (impl_->queue.empty() && !impl_->busy); });
 }
 
+void LoopCloser::IndexMap() {
+  Impl& s = *impl_;
+  std::vector<std::shared_ptr<const Keyframe>> keyframes;
+  {
+    auto lock = s.map->Lock();
+    for (const auto& [id, kf] : s.map->KeyframesLocked()) keyframes.push_back(kf);
+  }
+  for (const auto& kf : keyframes) {
+    const KeyframeBow bow = s.Bow(kf->features);
+    s.database.Add(static_cast<int>(kf->id), bow);
+    std::lock_guard<std::mutex> lock(s.mutex);
+    s.bows[kf->id] = bow;
+  }
+}
+
 void LoopCloser::Clear() {
   {
     std::unique_lock<std::mutex> lock(impl_->mutex);

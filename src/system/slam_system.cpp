@@ -2,9 +2,11 @@
 // tracker; mapping and loop closure plug in behind the same interface.
 #include "pl_slam/system/slam_system.h"
 
+#include <atomic>
 #include <chrono>
 #include <mutex>
 
+#include "pl_slam/map/map_io.h"
 #include "pl_slam/mapping/local_map_matching.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
@@ -69,9 +71,13 @@ struct SlamSystem::Impl {
   std::unique_ptr<LocalMapper> mapper;
   MappingFrontEnd front_end;
   KeyframeId next_keyframe_id = 0;
-  KeyframeId reference = kNoId;         // last keyframe handed to mapping
-  SE3 T_w_reference;                    // its pose when handed over
-  LocalMap local_map;                   // cached copy, refreshed when the map changes
+  KeyframeId reference = kNoId;  // last keyframe handed to mapping
+  SE3 T_w_reference;             // its pose when handed over
+  LocalMap local_map;            // cached copy, refreshed when the map changes
+  std::atomic<bool> localization_only{false};
+  bool relocalize_first = false;      // a loaded map: the first pose must come from relocalisation
+  mutable std::mutex features_mutex;  // guards last_features (read by the ROS layer)
+  StereoFeatures last_features;
   mutable std::mutex trajectory_mutex;  // guards records (read from other threads)
   std::vector<FrameRecord, Eigen::aligned_allocator<FrameRecord>> records;
 
@@ -125,6 +131,42 @@ const Map& SlamSystem::map() const { return *impl_->map; }
 
 MappingStats SlamSystem::mapping_stats() const {
   return impl_->mapper ? impl_->mapper->stats() : MappingStats();
+}
+
+void SlamSystem::SaveMap(const std::string& path) const { pl_slam::SaveMap(*impl_->map, path); }
+
+void SlamSystem::LoadMap(const std::string& path) {
+  Impl& s = *impl_;
+  if (!s.mapper) throw ConfigError("mapping.enabled=false: there is no map to load into");
+  Map loaded;  // validated completely before the live map is touched
+  pl_slam::LoadMap(path, &loaded);
+  s.mapper->Clear();
+  if (s.loop) s.loop->Clear();
+  {
+    auto from = loaded.Lock();
+    auto to = s.map->Lock();
+    s.map->ReplaceLocked(loaded.ExportLocked());
+    KeyframeId next = 0;
+    for (const auto& [id, kf] : s.map->KeyframesLocked()) next = std::max(next, id + 1);
+    // Culled keyframes' ids are not listed: leave a wide gap so new ids never alias them.
+    s.next_keyframe_id = std::max(s.next_keyframe_id, next + 1000000);
+  }
+  if (s.loop) s.loop->IndexMap();
+  s.local_map = LocalMap();
+  s.reference = kNoId;
+  s.tracker->Reset();
+  s.state = TrackingState::kNotInitialized;
+  s.relocalize_first = true;
+  std::lock_guard<std::mutex> lock(s.trajectory_mutex);
+  s.records.clear();
+}
+
+void SlamSystem::SetLocalizationOnly(bool on) { impl_->localization_only = on; }
+bool SlamSystem::localization_only() const { return impl_->localization_only; }
+
+StereoFeatures SlamSystem::last_features() const {
+  std::lock_guard<std::mutex> lock(impl_->features_mutex);
+  return impl_->last_features;
 }
 
 void SlamSystem::Flush() {
@@ -218,6 +260,17 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   }
 
   TrackerResult r = s.tracker->Track(frame);
+  {
+    std::lock_guard<std::mutex> lock(s.features_mutex);
+    s.last_features = s.tracker->last_features();
+  }
+  if (s.relocalize_first && r.pose_valid) {
+    // A loaded map: the tracker's own initialisation (at the identity) is not a pose in it.
+    r.pose_valid = false;
+    r.state = TrackerState::kLost;
+    r.is_keyframe = false;
+    r.warning = "waiting to relocalise in the loaded map";
+  }
   if (!r.pose_valid && s.loop && s.options.loop.relocalize &&
       r.points_stereo + r.lines_stereo > 0 && s.map->LastKeyframe() != kNoId) {
     // Lost: look for the place in the map before restarting from the last pose.
@@ -232,6 +285,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
       r.warning.clear();
       result.relocalized = true;
       if (s.map->KeyframePose(kf, &s.T_w_reference)) s.reference = kf;
+      s.relocalize_first = false;
       PL_LOG_INFO("frame " << frame.index << ": relocalised against keyframe " << kf);
     }
   }
@@ -297,7 +351,7 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
   }
   result->stage_ms.emplace_back(
       "local_map", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-  if (r.is_keyframe && r.pose_valid) {
+  if (r.is_keyframe && r.pose_valid && !s.localization_only) {
     KeyframeInput kf;
     kf.id = s.next_keyframe_id++;
     kf.frame_index = frame.index;

@@ -80,6 +80,9 @@ class LoopCloser {
 
   /// Local mapping processed keyframe `id`: add it to the database and look for a loop.
   void OnKeyframe(KeyframeId id);
+  /// Adds every keyframe of the map to the database without looking for loops (after a map
+  /// was loaded). Call while nothing else uses the loop closer.
+  void IndexMap();
   /// Takes the oldest verified loop waiting for correction; false when there is none.
   bool TakeDetection(LoopDetection* detection);
   /// True when a verified loop waits for correction.

@@ -95,6 +95,19 @@ class SlamSystem {
   /// Counters and timings of loop closing (zeros when it is off).
   LoopStats loop_stats() const;
 
+  /// Writes the map to `path` (map_io.h format, atomically). Throws InputError.
+  void SaveMap(const std::string& path) const;
+  /// Replaces the map by the one in `path` and waits for the next frames to relocalise in it
+  /// (tracking reports LOST until one does). Throws InputError (the current map is kept) or
+  /// ConfigError when mapping is off.
+  void LoadMap(const std::string& path);
+  /// Localisation only: tracking against the map (and relocalisation) go on, but no keyframe
+  /// is added, so the map stays as it is.
+  void SetLocalizationOnly(bool on);
+  bool localization_only() const;
+  /// Features of the last processed frame (for the debug image), left-camera pixels.
+  StereoFeatures last_features() const;
+
   /// Forgets everything: the next frame starts a new map at the identity.
   void Reset();
 
