@@ -6,6 +6,12 @@ Markdown table for docs/BENCHMARKS.md, plus per-stage timing medians.
 
     scripts/benchmark_offline.py [--out DIR] [--only NAME,NAME] [--repeat N]
                                  [--modes points,lines,points_lines] [--set K=V,...]
+                                 [--variants vo,map,slam] [--realtime] [--sequential]
+
+Variants: vo = visual odometry alone (mapping.enabled=false), map = local mapping without
+loop closing (loop.enabled=false), slam = everything. --sequential runs mapping in line
+(deterministic accuracy); --realtime feeds frames at the recording's rate (live-like timing
+with mapping in its own thread).
 
 Needs a built workspace (scripts/setup.sh). Standard library only; Debian's python3.
 """
@@ -23,6 +29,7 @@ BIN = os.path.join(os.environ.get("PL_SLAM_WS", os.path.join(ROOT, ".ws")), "dev
 SHARED = os.path.join(ROOT, "..", "shared", "datasets")
 
 SYNTHETIC = ["room", "corridor", "fast_turn"]
+VARIANTS = {"vo": "mapping.enabled=false", "map": "loop.enabled=false", "slam": ""}
 REAL = [("euroc_mh01", os.path.join(SHARED, "euroc_mh01_f100-249")),
         ("kitti_clip_a", os.path.join(SHARED, "kitti_clip_a"))]
 
@@ -48,10 +55,29 @@ def num(v):
     return float("nan") if v is None else float(v)
 
 
-def bench(name, source, out, repeat, mode, overrides, report_only=False):
+def map_stats(log):
+    """Keyframes, local BA median and p95 (ms), loops from the runner's summary lines."""
+    stats = {"keyframes": float("nan"), "ba_median": float("nan"), "ba_p95": float("nan"),
+             "loops": float("nan"), "dropped": float("nan")}
+    with open(log) as f:
+        for line in f:
+            words = line.replace(",", " ").replace(";", " ").replace("(", " ").replace(")", " ").split()
+            if line.startswith("map:"):
+                stats["keyframes"] = float(words[1])
+                stats["dropped"] = float(words[words.index("dropped") - 1])
+                i = words.index("BA")
+                stats["ba_median"] = float(words[i + 2])
+                stats["ba_p95"] = float(words[i + 5])
+            elif line.startswith("loops:"):
+                stats["loops"] = float(words[1])
+    return stats
+
+
+def bench(name, source, out, repeat, mode, overrides, report_only=False, variant="slam",
+          realtime=False):
     runs = []
     for k in range(repeat):
-        d = os.path.join(out, mode, name, "run%d" % k)
+        d = os.path.join(out, variant, mode, name, "run%d" % k)
         if report_only:
             if not os.path.isfile(os.path.join(d, "timing.csv")):
                 raise RuntimeError("%s: no earlier run to report" % d)
@@ -61,13 +87,16 @@ def bench(name, source, out, repeat, mode, overrides, report_only=False):
         cmd = [os.path.join(BIN, "pl_slam_offline"), source, "--out", d, "--quiet", "--mode", mode]
         if overrides:
             cmd += ["--set", overrides]
+        if realtime:
+            cmd += ["--realtime"]
         run(cmd, os.path.join(d, "offline.log"))
         runs.append(d)
     d = runs[0]
     run([os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(d, "trajectory.tum"),
          "--gt", os.path.join(d, "groundtruth.tum"), "--frame-times", os.path.join(d, "frames.txt"),
          "--align", "se3", "--json", os.path.join(d, "eval.json"),
-         "--plot", os.path.join(out, mode, name + ".png"), "--name", "%s (%s)" % (name, mode)],
+         "--plot", os.path.join(out, variant, mode, name + ".png"),
+         "--name", "%s (%s, %s)" % (name, variant, mode)],
         os.path.join(d, "eval.log"))
     with open(os.path.join(d, "eval.json")) as f:
         ev = json.load(f)
@@ -81,9 +110,16 @@ def bench(name, source, out, repeat, mode, overrides, report_only=False):
                         stages.setdefault(k[:-3], []).append(float(v))
     rpe1 = next((r for r in ev["rpe_frames"] if r["delta"] == 1), None)
     drift = [r for r in ev["rpe_distance"] if r["segments"] > 0]
+    ms = map_stats(os.path.join(runs[0], "offline.log"))
     return {
         "name": name,
+        "variant": variant,
         "mode": mode,
+        "keyframes": ms["keyframes"],
+        "ba_median": ms["ba_median"],
+        "ba_p95": ms["ba_p95"],
+        "loops": ms["loops"],
+        "dropped": ms["dropped"],
         "frames": ev["coverage"]["frames"],
         "coverage": num(ev["coverage"]["ratio"]),
         "length": num(ev["gt_path_length_m"]),
@@ -107,6 +143,9 @@ def main():
     ap.add_argument("--modes", default="points,points_lines", help="tracker feature modes to compare")
     ap.add_argument("--set", default="", help="option overrides passed to pl_slam_offline --set")
     ap.add_argument("--report-only", action="store_true", help="tabulate the runs already in --out")
+    ap.add_argument("--variants", default="slam", help="vo, map, slam (see above)")
+    ap.add_argument("--realtime", action="store_true", help="feed frames at the recording's rate")
+    ap.add_argument("--sequential", action="store_true", help="mapping in line (deterministic)")
     args = ap.parse_args()
     only = set(filter(None, args.only.split(",")))
     os.makedirs(args.out, exist_ok=True)
@@ -132,28 +171,35 @@ def main():
 
     results = []
     for name, path in sequences:
-        for mode in args.modes.split(","):
-            print("running %s (%s) ..." % (name, mode), flush=True)
-            try:
-                results.append(bench(name, path, args.out, args.repeat, mode, args.set, args.report_only))
-            except RuntimeError as e:
-                print("  FAILED: %s" % str(e).splitlines()[0])
+        for variant in args.variants.split(","):
+            overrides = ",".join(filter(None, [VARIANTS[variant], args.set,
+                                               "mapping.threaded=false" if args.sequential else ""]))
+            for mode in args.modes.split(","):
+                print("running %s (%s, %s) ..." % (name, variant, mode), flush=True)
+                try:
+                    results.append(bench(name, path, args.out, args.repeat, mode, overrides,
+                                         args.report_only, variant, args.realtime))
+                except RuntimeError as e:
+                    print("  FAILED: %s" % str(e).splitlines()[0])
 
     with open(os.path.join(args.out, "results.json"), "w") as f:
         json.dump(results, f, indent=1)
     print()
     print("machine: %s, %d cores, %s" % (platform.node(), os.cpu_count(), platform.processor() or platform.machine()))
     print()
-    print("| sequence | mode | frames | coverage | path m | ATE RMSE m (SE3) | RPE/frame m | RPE/frame deg | drift % (longest seg) | median ms | p95 ms | IQR ms |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| sequence | variant | mode | frames | coverage | path m | ATE RMSE m (SE3) | RPE/frame m | RPE/frame deg | drift % (longest seg) | tracking median ms | p95 ms | IQR ms | keyframes | local BA median / p95 ms | loops |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in results:
-        print("| %s | %s | %d | %.1f%% | %.1f | %.4f | %.4f | %.3f | %.2f (%g m) | %.1f | %.1f | %.1f |" % (
-            r["name"], r["mode"], r["frames"], 100 * r["coverage"], r["length"], r["ate"], r["rpe1_t"],
-            r["rpe1_r"], r["drift"], r["drift_len"], r["median_ms"], r["p95_ms"], r["spread_ms"]))
+        print("| %s | %s | %s | %d | %.1f%% | %.1f | %.4f | %.4f | %.3f | %.2f (%g m) | %.1f | %.1f | %.1f | %g | %.0f / %.0f | %g |" % (
+            r["name"], r.get("variant", "slam"), r["mode"], r["frames"], 100 * r["coverage"], r["length"],
+            r["ate"], r["rpe1_t"], r["rpe1_r"], r["drift"], r["drift_len"], r["median_ms"], r["p95_ms"],
+            r["spread_ms"], r.get("keyframes", float("nan")), r.get("ba_median", float("nan")),
+            r.get("ba_p95", float("nan")), r.get("loops", float("nan"))))
     print()
     print("per-stage median ms:")
     for r in results:
-        print("  %-12s %-13s %s" % (r["name"], r["mode"], ", ".join("%s %.1f" % kv for kv in r["stages"].items())))
+        print("  %-12s %-5s %-13s %s" % (r["name"], r.get("variant", "slam"), r["mode"],
+                                        ", ".join("%s %.1f" % kv for kv in r["stages"].items())))
     return 0
 
 

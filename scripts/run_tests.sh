@@ -18,6 +18,19 @@ set +e
 catkin_make run_tests -DPYTHON_EXECUTABLE=/usr/bin/python3 -j"${PL_SLAM_JOBS:-$(nproc)}" 2>&1 | \
   tee "${PL_SLAM_WS}/run_tests.log" | grep -E "^\[ *(RUN|OK|FAILED|SKIPPED|PASSED) *\]|^\[(ROSUNIT|Testcase)|FAILURE|error:|Error |SUMMARY|^ \* |test skipped" 
 build_rc=${PIPESTATUS[0]}
+# rviz headless (after the rostests, so it does not compete with them for the CPU): opens the
+# package's config under Xvfb, screenshots the map during the demo (artefact kept in
+# output/rviz/), fails on rviz errors or a blank picture. Verdict joins the JUnit results.
+if [ "${build_rc}" -eq 0 ]; then
+  mkdir -p "${results}/pl_slam"
+  bash "${HERE}/rviz_screenshot.sh" junit:="${results}/pl_slam/rviz_screenshot.xml" \
+    > "${PL_SLAM_WS}/rviz_screenshot.log" 2>&1 || true
+  tail -3 "${PL_SLAM_WS}/rviz_screenshot.log"
+  if [ ! -f "${results}/pl_slam/rviz_screenshot.xml" ]; then
+    echo "run_tests.sh: the rviz check gave no verdict; see ${PL_SLAM_WS}/rviz_screenshot.log" >&2
+    build_rc=1
+  fi
+fi
 set -e
 if [ "${build_rc}" -ne 0 ]; then
   echo "run_tests.sh: building or running the tests failed (exit ${build_rc}); see ${PL_SLAM_WS}/run_tests.log" >&2

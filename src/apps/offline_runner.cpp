@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <chrono>
 #include <thread>
+
+#include <unistd.h>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -39,6 +41,7 @@ constexpr char kUsage[] =
     "  --print-config        print every option with its value and meaning, then exit\n"
     "  --quiet               only the summary\n"
     "  --realtime            feed frames at the recording's rate (live-like threaded mapping)\n"
+    "  --memory-every N      every N frames, log resident memory and map size to DIR/memory.csv\n"
     "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
     "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
 
@@ -56,6 +59,14 @@ double Percentile(std::vector<double> v, double q) {
   std::sort(v.begin(), v.end());
   const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
   return v[k];
+}
+
+/// Resident set size of this process in MB (Linux /proc/self/statm), 0 when unknown.
+double ResidentMegabytes() {
+  std::ifstream statm("/proc/self/statm");
+  long pages_total = 0, pages_resident = 0;
+  if (!(statm >> pages_total >> pages_resident)) return 0.0;
+  return pages_resident * (sysconf(_SC_PAGESIZE) / 1048576.0);
 }
 
 std::string TimingCsv(const std::vector<TimingRow>& rows) {
@@ -85,8 +96,8 @@ std::string TimingCsv(const std::vector<TimingRow>& rows) {
 int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(argc, argv,
                                 {"out", "max-frames", "left-topic", "right-topic", "left-info",
-                                 "right-info", "gt-topic", "config", "mode", "set"},
-                                {"quiet", "help", "print-config"});
+                                 "right-info", "gt-topic", "config", "mode", "set", "memory-every"},
+                                {"quiet", "help", "print-config", "realtime"});
   if (cl.Has("help")) {
     std::cout << kUsage;
     return 0;
@@ -146,6 +157,9 @@ int Run(int argc, char** argv) {
   int lost = 0;
   pl_slam::StereoFrame frame;
   const bool realtime = cl.Has("realtime");
+  const int memory_every = cl.GetInt("memory-every", 0);
+  std::ostringstream memory_csv;
+  memory_csv << "frame,rss_mb,keyframes,points,lines,culled_keyframes\n";
   const auto wall_start = std::chrono::steady_clock::now();
   double first_stamp = -1.0;
   while ((max_frames < 0 || static_cast<int>(rows.size()) < max_frames) && source->Next(&frame)) {
@@ -160,6 +174,11 @@ int Run(int argc, char** argv) {
                     r.points_detected, r.lines_detected, r.point_inliers, r.line_inliers,
                     r.stage_ms, r.total_ms});
     totals.push_back(r.total_ms);
+    if (memory_every > 0 && static_cast<int>(rows.size()) % memory_every == 0) {
+      const pl_slam::MapCounts mc = system.map().counts();
+      memory_csv << rows.size() << "," << ResidentMegabytes() << "," << mc.keyframes << ","
+                 << mc.points << "," << mc.lines << "," << mc.culled_keyframes << "\n";
+    }
     if (!r.pose_valid) ++lost;
   }
   system.Flush();  // the keyframes still queued for mapping
@@ -167,6 +186,7 @@ int Run(int argc, char** argv) {
   const std::string traj_path = out_dir + "/trajectory.tum";
   pl_slam::WriteTrajectory(traj_path, traj, pl_slam::TrajectoryFormat::kTum);
   pl_slam::WriteFileAtomic(out_dir + "/timing.csv", TimingCsv(rows));
+  if (memory_every > 0) pl_slam::WriteFileAtomic(out_dir + "/memory.csv", memory_csv.str());
   // Every frame read (tracked or not): what coverage is measured against.
   std::ostringstream frame_times;
   frame_times << std::fixed << std::setprecision(9);

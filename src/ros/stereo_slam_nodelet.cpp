@@ -1,6 +1,8 @@
 #include "pl_slam/ros/stereo_slam_nodelet.h"
 
 #include <algorithm>
+#include <cstdio>
+#include <filesystem>
 #include <iomanip>
 #include <set>
 #include <sstream>
@@ -10,11 +12,15 @@
 #include <geometry_msgs/TransformStamped.h>
 #include <nav_msgs/Odometry.h>
 #include <pluginlib/class_list_macros.hpp>
+#include <ros/package.h>
+#include <sensor_msgs/image_encodings.h>
 #include <tf2_eigen/tf2_eigen.h>
 
 #include "pl_slam/TrackingStatus.h"
 #include "pl_slam/io/trajectory.h"
+#include "pl_slam/map/map_io.h"
 #include "pl_slam/ros/conversions.h"
+#include "pl_slam/ros/map_visualization.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 
@@ -38,6 +44,15 @@ std::string NodeletOptions::Validate() const {
     os << "queue_size=" << queue_size << " must be in [1, 100]";
   else if (!(input_warning_period >= 0.1 && input_warning_period <= 3600.0))
     os << "input_warning_period=" << input_warning_period << " must be in [0.1, 3600] s";
+  else if (!(markers_rate >= 0.0 && markers_rate <= 100.0))
+    os << "markers_rate=" << markers_rate << " must be in [0, 100] Hz (0 = no markers)";
+  else if (!(debug_image_rate >= 0.0 && debug_image_rate <= 1000.0))
+    os << "debug_image_rate=" << debug_image_rate
+       << " must be in [0, 1000] Hz (0 = no debug image)";
+  else if (!map_file.empty() && !system.mapping.enabled)
+    os << "map_file='" << map_file << "' needs mapping.enabled=true (there is no map to load into)";
+  else if (localization_only && !system.mapping.enabled)
+    os << "localization_only=true needs mapping.enabled=true (there is no map to localise in)";
   else if (!use_camera_info && !camera.Validate().empty())
     os << "camera.*: " << camera.Validate()
        << " (use_camera_info is false, so camera.fx, camera.fy, camera.cx, camera.cy, "
@@ -131,6 +146,16 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
   table.Add("camera.height", &o->camera.height, "image height, px (use_camera_info false)");
   table.Add("input_warning_period", &o->input_warning_period,
             "seconds between warnings about the same kind of bad input");
+  table.Add("markers_rate", &o->markers_rate,
+            "highest rate of ~markers and the keyframe ~path, Hz, each sent when the map "
+            "changed (0 = never)");
+  table.Add("debug_image_rate", &o->debug_image_rate,
+            "highest rate of ~debug_image, Hz, drawn only while subscribed (0 = never)");
+  table.Add("map_file", &o->map_file,
+            "map file (~save_map) loaded at start-up, the first frames relocalise in it; "
+            "empty = a new map");
+  table.Add("localization_only", &o->localization_only,
+            "start in localisation-only mode: track and relocalise in the map, add no keyframe");
   return table;
 }
 
@@ -194,6 +219,44 @@ bool StereoSlamNodelet::LoadOptions(ros::NodeHandle& pnh) {
     NODELET_FATAL("pl_slam: bad parameter %s; refusing to start", err.c_str());
     return false;
   }
+  // The vocabulary: the package's by default, relative paths relative to the package (as
+  // the offline runner does with its build-time package folder).
+  std::string& vocabulary = options_.system.loop.vocabulary;
+  if (vocabulary.empty() || vocabulary[0] != '/') {
+    const std::string package_dir = ros::package::getPath("pl_slam");
+    if (package_dir.empty()) {
+      NODELET_FATAL(
+          "pl_slam: loop.vocabulary='%s' is relative to the package, but rospack cannot find "
+          "the pl_slam package; give an absolute path; refusing to start",
+          vocabulary.c_str());
+      return false;
+    }
+    vocabulary = package_dir + "/" + (vocabulary.empty() ? "vocabulary" : vocabulary);
+  }
+  const LoopClosingOptions& loop = options_.system.loop;
+  if (options_.system.mapping.enabled && (loop.enabled || loop.relocalize) &&
+      !std::filesystem::exists(loop.vocabulary)) {
+    NODELET_FATAL(
+        "pl_slam: loop.vocabulary='%s' does not exist (loop closing or relocalisation is on); "
+        "refusing to start",
+        loop.vocabulary.c_str());
+    return false;
+  }
+  if (!options_.map_file.empty()) {
+    // Checked completely now (format, checksum, consistency) so a bad file stops the nodelet
+    // at start-up; the core loads it again once the calibration is known.
+    try {
+      Map probe;
+      pl_slam::LoadMap(options_.map_file, &probe);
+      const MapCounts counts = probe.counts();
+      NODELET_INFO("pl_slam: map_file %s: %zu keyframes, %zu points, %zu lines",
+                   options_.map_file.c_str(), counts.keyframes, counts.points, counts.lines);
+    } catch (const std::exception& e) {
+      NODELET_FATAL("pl_slam: map_file='%s' cannot be loaded: %s; refusing to start",
+                    options_.map_file.c_str(), e.what());
+      return false;
+    }
+  }
   NODELET_INFO("pl_slam: effective configuration:\n%s", table.Describe().c_str());
   return true;
 }
@@ -211,7 +274,14 @@ void StereoSlamNodelet::onInit() {
   pose_pub_ = pnh.advertise<geometry_msgs::PoseStamped>("pose", 10);
   path_pub_ = pnh.advertise<nav_msgs::Path>("path", 1, true);
   status_pub_ = pnh.advertise<pl_slam::TrackingStatus>("status", 10);
+  markers_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  private_it_ = std::make_unique<image_transport::ImageTransport>(pnh);
+  debug_pub_ = private_it_->advertise("debug_image", 1);
+  localization_only_ = options_.localization_only;
   save_srv_ = pnh.advertiseService("save_trajectory", &StereoSlamNodelet::OnSaveTrajectory, this);
+  save_map_srv_ = pnh.advertiseService("save_map", &StereoSlamNodelet::OnSaveMap, this);
+  localization_srv_ = pnh.advertiseService("set_localization_only",
+                                           &StereoSlamNodelet::OnSetLocalizationOnly, this);
   reset_srv_ = pnh.advertiseService("reset", &StereoSlamNodelet::OnReset, this);
   tf_buffer_ = std::make_unique<tf2_ros::Buffer>();
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
@@ -441,14 +511,11 @@ void StereoSlamNodelet::WorkerLoop() {
     if (!system_ || !SameCamera(camera, camera_)) {
       if (system_) NODELET_WARN("pl_slam: the rectified calibration changed; starting a new map");
       try {
-        system_ = std::make_unique<SlamSystem>(camera, options_.system);
+        StartSystemLocked(camera);
       } catch (const std::exception& e) {
         NODELET_ERROR_THROTTLE(5.0, "pl_slam: cannot start the pipeline: %s", e.what());
         continue;
       }
-      camera_ = camera;
-      path_.poses.clear();
-      last_stamp_ns_ = -1;
     }
     if (last_stamp_ns_ >= 0 && frame.stamp_ns == last_stamp_ns_) {
       RejectInput("stamps", "stereo pair with the same stamp as the previous one skipped");
@@ -460,8 +527,7 @@ void StereoSlamNodelet::WorkerLoop() {
           "pl_slam: image stamp went backwards (%.3f after %.3f, bag loop?); resetting "
           "the map and the trajectory",
           frame.stamp_ns * 1e-9, last_stamp_ns_ * 1e-9);
-      system_->Reset();
-      path_.poses.clear();
+      ResetSystemLocked();
     }
     last_stamp_ns_ = frame.stamp_ns;
     frame.index = static_cast<int>(frames_processed_);
@@ -500,6 +566,43 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     tf_listener_.reset();
   }
   Publish(result, header);
+  PublishMap(header);
+  PublishDebugImage(frame, result, header);
+}
+
+void StereoSlamNodelet::StartSystemLocked(const StereoCamera& camera) {
+  system_.reset();  // the old pipeline's threads stop before the new one starts
+  auto system = std::make_unique<SlamSystem>(camera, options_.system);
+  if (!options_.map_file.empty()) {
+    system->LoadMap(options_.map_file);
+    NODELET_INFO("pl_slam: map %s loaded; waiting to relocalise in it", options_.map_file.c_str());
+  }
+  system->SetLocalizationOnly(localization_only_);
+  system_ = std::move(system);
+  camera_ = camera;
+  path_.poses.clear();
+  keyframe_path_.poses.clear();
+  current_pose_.reset();
+  published_map_version_ = UINT64_MAX;
+  last_stamp_ns_ = -1;
+}
+
+void StereoSlamNodelet::ResetSystemLocked() {
+  path_.poses.clear();
+  keyframe_path_.poses.clear();
+  current_pose_.reset();
+  published_map_version_ = UINT64_MAX;
+  if (!system_) return;
+  system_->Reset();
+  if (!options_.map_file.empty()) {
+    try {
+      system_->LoadMap(options_.map_file);
+      NODELET_INFO("pl_slam: map %s loaded again after the reset", options_.map_file.c_str());
+    } catch (const std::exception& e) {
+      NODELET_ERROR("pl_slam: map_file='%s' cannot be loaded again: %s; mapping from scratch",
+                    options_.map_file.c_str(), e.what());
+    }
+  }
 }
 
 void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Header& header) {
@@ -529,7 +632,8 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
     pose_pub_.publish(pose);
     path_.header = pose.header;
     path_.poses.push_back(pose);
-    if (path_pub_.getNumSubscribers() > 0 && (frames_processed_ % 5 == 0)) path_pub_.publish(path_);
+    current_pose_ = pose;
+    path_pose_pending_ = true;
 
     if (options_.publish_tf) {
       std::vector<geometry_msgs::TransformStamped> tfs;
@@ -551,6 +655,15 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
   status.lines_detected = static_cast<uint32_t>(result.lines_detected);
   status.point_inliers = static_cast<uint32_t>(result.point_inliers);
   status.line_inliers = static_cast<uint32_t>(result.line_inliers);
+  status.keyframes = static_cast<uint32_t>(result.keyframes);
+  status.point_landmarks = static_cast<uint32_t>(result.map_points);
+  status.line_landmarks = static_cast<uint32_t>(result.map_lines);
+  status.map_point_inliers = static_cast<uint32_t>(result.map_point_inliers);
+  status.map_line_inliers = static_cast<uint32_t>(result.map_line_inliers);
+  status.loops = static_cast<uint32_t>(result.loops);
+  status.map_tracked = result.map_tracked;
+  status.relocalized = result.relocalized;
+  status.localization_only = system_->localization_only();
   for (const auto& [name, ms] : result.stage_ms) {
     status.stage_names.push_back(name);
     status.stage_ms.push_back(static_cast<float>(ms));
@@ -587,13 +700,120 @@ bool StereoSlamNodelet::OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
   return true;
 }
 
+void StereoSlamNodelet::PublishMap(const std_msgs::Header& header) {
+  if (options_.markers_rate <= 0.0) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if (!last_map_publish_.isZero() &&
+      (now - last_map_publish_).toSec() < 1.0 / options_.markers_rate)
+    return;
+  // The SLAM world is the first left camera's optical frame; map (= odom at the start) is the
+  // base at the start, so p_map = T_base_cam * p_w (see Publish).
+  const SE3& T_map_w = *T_base_cam_;
+  const uint64_t version = system_->map().version();
+  const bool map_changed = version != published_map_version_;
+  if (!map_changed && !path_pose_pending_) return;
+  last_map_publish_ = now;
+  if (map_changed) {
+    const MapSnapshot snapshot = system_->map().Snapshot();
+    published_map_version_ = snapshot.version;
+    markers_pub_.publish(MakeMapMarkers(snapshot, T_map_w, options_.map_frame, header.stamp));
+    keyframe_path_ = MakeKeyframePath(snapshot, T_map_w, *T_base_cam_, options_.map_frame);
+  }
+  // The keyframe trajectory (moved by bundle adjustment and loop closure) plus the current
+  // pose; without keyframes (mapping off, or not yet) the per-frame path.
+  nav_msgs::Path path;
+  if (keyframe_path_.poses.empty()) {
+    path = path_;
+  } else {
+    path = keyframe_path_;
+    if (current_pose_) path.poses.push_back(*current_pose_);
+  }
+  path.header.frame_id = options_.map_frame;
+  path.header.stamp = header.stamp;
+  path_pub_.publish(path);
+  path_pose_pending_ = false;
+}
+
+void StereoSlamNodelet::PublishDebugImage(const StereoFrame& frame, const FrameResult& result,
+                                          const std_msgs::Header& header) {
+  if (options_.debug_image_rate <= 0.0 || debug_pub_.getNumSubscribers() == 0) return;
+  const ros::WallTime now = ros::WallTime::now();
+  if (!last_debug_image_.isZero() &&
+      (now - last_debug_image_).toSec() < 1.0 / options_.debug_image_rate)
+    return;
+  last_debug_image_ = now;
+  char text[256];
+  std::snprintf(text, sizeof(text),
+                "%s%s%s | pts %d/%d lines %d/%d | map %d kf %d pts %d lines | loops %d | %.1f ms",
+                TrackingStateName(result.state), result.relocalized ? " (relocalised)" : "",
+                system_->localization_only() ? " LOCALISATION" : "", result.point_inliers,
+                result.points_detected, result.line_inliers, result.lines_detected,
+                result.keyframes, result.map_points, result.map_lines, result.loops,
+                result.total_ms);
+  const cv::Mat image = DrawDebugImage(frame.left, system_->last_features(), text);
+  sensor_msgs::ImagePtr msg = boost::make_shared<sensor_msgs::Image>();
+  msg->header = header;
+  msg->height = static_cast<uint32_t>(image.rows);
+  msg->width = static_cast<uint32_t>(image.cols);
+  msg->encoding = sensor_msgs::image_encodings::BGR8;
+  msg->is_bigendian = 0;
+  msg->step = static_cast<uint32_t>(image.cols * 3);
+  msg->data.resize(static_cast<size_t>(msg->step) * image.rows);
+  for (int r = 0; r < image.rows; ++r)
+    std::copy(image.ptr<uint8_t>(r), image.ptr<uint8_t>(r) + msg->step,
+              msg->data.begin() + static_cast<size_t>(r) * msg->step);
+  debug_pub_.publish(msg);
+}
+
+bool StereoSlamNodelet::OnSaveMap(pl_slam::SaveMap::Request& req, pl_slam::SaveMap::Response& res) {
+  try {
+    if (req.path.empty()) throw InputError("path is empty");
+    if (!options_.system.mapping.enabled)
+      throw InputError("mapping.enabled=false: there is no map to save");
+    std::lock_guard<std::mutex> lock(system_mutex_);
+    if (!system_) throw InputError("no map yet: no frame has been processed");
+    system_->Flush();  // the keyframes still queued for local mapping belong in the file
+    system_->SaveMap(req.path);
+    const MapCounts counts = system_->map().counts();
+    res.success = true;
+    res.message = "wrote the map (" + std::to_string(counts.keyframes) + " keyframes, " +
+                  std::to_string(counts.points) + " points, " + std::to_string(counts.lines) +
+                  " lines) to " + req.path;
+    NODELET_INFO("pl_slam: %s", res.message.c_str());
+  } catch (const std::exception& e) {
+    res.success = false;
+    res.message = e.what();
+    NODELET_WARN("pl_slam: save_map failed: %s", e.what());
+  }
+  return true;
+}
+
+bool StereoSlamNodelet::OnSetLocalizationOnly(std_srvs::SetBool::Request& req,
+                                              std_srvs::SetBool::Response& res) {
+  if (!options_.system.mapping.enabled) {
+    res.success = false;
+    res.message = "mapping.enabled=false: there is no map to localise in";
+    NODELET_WARN("pl_slam: set_localization_only refused: %s", res.message.c_str());
+    return true;
+  }
+  std::lock_guard<std::mutex> lock(system_mutex_);
+  localization_only_ = req.data;
+  if (system_) system_->SetLocalizationOnly(req.data);
+  res.success = true;
+  res.message = req.data ? "localisation only: tracking in the map, no new keyframes"
+                         : "mapping: new keyframes are added to the map";
+  NODELET_INFO("pl_slam: %s", res.message.c_str());
+  return true;
+}
+
 bool StereoSlamNodelet::OnReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   std::lock_guard<std::mutex> lock(system_mutex_);
-  if (system_) system_->Reset();
-  path_.poses.clear();
+  ResetSystemLocked();
   last_stamp_ns_ = -1;
   res.success = true;
-  res.message = "map and trajectory cleared";
+  res.message = options_.map_file.empty()
+                    ? "map and trajectory cleared"
+                    : "trajectory cleared, map reloaded from " + options_.map_file;
   NODELET_INFO("pl_slam: reset");
   return true;
 }

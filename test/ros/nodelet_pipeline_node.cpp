@@ -1,13 +1,18 @@
 // rostest node: plays nothing itself; watches the nodelet while rosbag play feeds it.
 #include <filesystem>
+#include <limits>
 
 #include <gtest/gtest.h>
 #include <nav_msgs/Odometry.h>
+#include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
+#include <visualization_msgs/MarkerArray.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "pl_slam/SaveMap.h"
 #include "pl_slam/SaveTrajectory.h"
 #include "pl_slam/TrackingStatus.h"
 #include "pl_slam/eval/evaluation.h"
@@ -43,8 +48,42 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
         if (m->state == pl_slam::TrackingStatus::TRACKING) ++tracking_count;
         last_status = *m;
       });
+  visualization_msgs::MarkerArray markers;
+  size_t marker_arrays = 0;
+  ros::Subscriber markers_sub = nh.subscribe<visualization_msgs::MarkerArray>(
+      "/pl_slam/markers", 10, [&](const visualization_msgs::MarkerArray::ConstPtr& m) {
+        ++marker_arrays;
+        markers = *m;
+      });
+  nav_msgs::Path path_msg;
+  ros::Subscriber path_sub = nh.subscribe<nav_msgs::Path>(
+      "/pl_slam/path", 10, [&](const nav_msgs::Path::ConstPtr& m) { path_msg = *m; });
   tf2_ros::Buffer tf_buffer;
   tf2_ros::TransformListener tf_listener(tf_buffer);
+
+  // Localisation-only mode for a stretch in the middle of the recording: switched on and off
+  // through the service, reported by the status, and no keyframe is added meanwhile.
+  enum class Phase { kMapping, kLocalizing, kMappingAgain } phase = Phase::kMapping;
+  size_t localizing_statuses = 0, mapping_again_statuses = 0;
+  uint32_t kf_min_localizing = std::numeric_limits<uint32_t>::max(), kf_max_localizing = 0;
+  auto set_localization = [&](bool on) {
+    std_srvs::SetBool srv;
+    srv.request.data = on;
+    EXPECT_TRUE(ros::service::call("/pl_slam/set_localization_only", srv));
+    EXPECT_TRUE(srv.response.success) << srv.response.message;
+    // Statuses already queued may predate the switch.
+    ros::Duration(0.05).sleep();
+    ros::spinOnce();
+  };
+  ros::Subscriber mode_sub = nh.subscribe<pl_slam::TrackingStatus>(
+      "/pl_slam/status", 1000, [&](const pl_slam::TrackingStatus::ConstPtr& m) {
+        if (phase == Phase::kLocalizing && m->localization_only) {
+          ++localizing_statuses;
+          kf_min_localizing = std::min(kf_min_localizing, m->keyframes);
+          kf_max_localizing = std::max(kf_max_localizing, m->keyframes);
+        }
+        if (phase == Phase::kMappingAgain && !m->localization_only) ++mapping_again_statuses;
+      });
 
   // Wait until every frame was processed, or the stream went quiet after it started.
   const ros::WallTime start = ros::WallTime::now();
@@ -59,6 +98,13 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
     }
     if (!tf_ok && status_count > 0)
       tf_ok = tf_buffer.canTransform("map", "base_link", ros::Time(0));
+    if (phase == Phase::kMapping && status_count >= frames / 2) {
+      set_localization(true);
+      phase = Phase::kLocalizing;
+    } else if (phase == Phase::kLocalizing && status_count >= frames * 3 / 4) {
+      set_localization(false);
+      phase = Phase::kMappingAgain;
+    }
     if (status_count >= frames) break;
     if (status_count > 0 && (ros::WallTime::now() - last_change).toSec() > 8.0) break;
     ros::WallDuration(0.01).sleep();
@@ -73,6 +119,52 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   EXPECT_EQ(last_status.state_name, "TRACKING");
   EXPECT_GT(last_status.points_detected, 100u);
   EXPECT_TRUE(tf_ok) << "no TF map -> base_link";
+  EXPECT_GT(last_status.keyframes, 2u);
+  EXPECT_GT(last_status.point_landmarks, 100u);
+  EXPECT_GT(last_status.line_landmarks, 10u);
+  EXPECT_FALSE(last_status.localization_only);
+
+  // Localisation-only stretch.
+  EXPECT_GT(localizing_statuses, 3u) << "no status reported localization_only after the switch";
+  EXPECT_LE(kf_max_localizing, kf_min_localizing + 1)
+      << "keyframes were added in localisation-only mode";
+  EXPECT_GT(mapping_again_statuses, 3u) << "localization_only stayed on after switching it off";
+
+  // Markers: the map's points and segments, in the map frame, around the path.
+  EXPECT_GT(marker_arrays, 0u) << "no /pl_slam/markers";
+  const visualization_msgs::Marker* points = nullptr;
+  const visualization_msgs::Marker* lines = nullptr;
+  for (const auto& m : markers.markers) {
+    if (m.ns == "points") points = &m;
+    if (m.ns == "lines") lines = &m;
+  }
+  ASSERT_NE(points, nullptr) << "no \"points\" marker";
+  ASSERT_NE(lines, nullptr) << "no \"lines\" marker";
+  EXPECT_EQ(points->type, visualization_msgs::Marker::POINTS);
+  EXPECT_EQ(points->action, visualization_msgs::Marker::ADD);
+  EXPECT_GT(points->points.size(), 100u);
+  EXPECT_EQ(lines->type, visualization_msgs::Marker::LINE_LIST);
+  EXPECT_GT(lines->points.size(), 20u);
+  EXPECT_EQ(lines->points.size() % 2, 0u);
+  EXPECT_EQ(points->header.frame_id, "map");
+  ASSERT_GT(path_msg.poses.size(), 2u) << "no /pl_slam/path";
+  EXPECT_EQ(path_msg.header.frame_id, "map");
+  {
+    // Most map points within a few metres of the path (a wrong frame or a missing camera
+    // mount puts them metres away), and the path ends at the last published pose.
+    size_t near = 0;
+    for (const auto& p : points->points) {
+      double best = 1e9;
+      for (const auto& q : path_msg.poses) {
+        const double dx = p.x - q.pose.position.x, dy = p.y - q.pose.position.y,
+                     dz = p.z - q.pose.position.z;
+        best = std::min(best, std::sqrt(dx * dx + dy * dy + dz * dz));
+      }
+      if (best < 6.0) ++near;
+    }
+    EXPECT_GT(static_cast<double>(near), 0.9 * points->points.size())
+        << "map points far from the path";
+  }
 
   // Save the trajectory through the service and score it against the bag's ground truth.
   const std::string path = (std::filesystem::temp_directory_path() /
@@ -102,6 +194,22 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   ASSERT_TRUE(ros::service::call("/pl_slam/save_trajectory", save));
   EXPECT_FALSE(save.response.success);
   EXPECT_FALSE(save.response.message.empty());
+
+  // The map through ~save_map; a bad path is refused.
+  const std::string map_path = (std::filesystem::temp_directory_path() /
+                                ("pl_slam_rostest_" + std::to_string(::getpid()) + ".plmap"))
+                                   .string();
+  pl_slam::SaveMap save_map;
+  save_map.request.path = map_path;
+  ASSERT_TRUE(ros::service::call("/pl_slam/save_map", save_map));
+  EXPECT_TRUE(save_map.response.success) << save_map.response.message;
+  EXPECT_TRUE(std::filesystem::exists(map_path));
+  if (std::filesystem::exists(map_path)) EXPECT_GT(std::filesystem::file_size(map_path), 1000u);
+  std::filesystem::remove(map_path);
+  save_map.request.path = "/nonexistent_dir_pl_slam/x.plmap";
+  ASSERT_TRUE(ros::service::call("/pl_slam/save_map", save_map));
+  EXPECT_FALSE(save_map.response.success);
+  EXPECT_FALSE(save_map.response.message.empty());
 
   // Reset clears the trajectory.
   std_srvs::Trigger reset;

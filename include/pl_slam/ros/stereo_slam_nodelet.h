@@ -20,11 +20,13 @@
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
+#include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/buffer.h>
 #include <tf2_ros/transform_broadcaster.h>
 #include <tf2_ros/transform_listener.h>
 
+#include "pl_slam/SaveMap.h"
 #include "pl_slam/SaveTrajectory.h"
 #include "pl_slam/io/stereo_frame.h"
 #include "pl_slam/ros/camera_info_rectifier.h"
@@ -54,6 +56,16 @@ struct NodeletOptions {
   /// Seconds between two warnings about the same kind of bad input, and the period of the
   /// check for images that never form a synchronised pair.
   double input_warning_period = 5.0;
+  /// Highest rate (Hz) of ~markers and of the keyframe ~path, each published only when the
+  /// map changed (0 = never).
+  double markers_rate = 2.0;
+  /// Highest rate (Hz) of ~debug_image, drawn only while someone subscribes (0 = never).
+  double debug_image_rate = 10.0;
+  /// A map file (SaveMap) loaded at start-up; the first frames relocalise in it. Checked
+  /// completely in onInit: a bad file stops the nodelet. Empty = start with an empty map.
+  std::string map_file;
+  /// Start in localisation-only mode (tracking and relocalisation, no new keyframes).
+  bool localization_only = false;
   SystemOptions system;  ///< core pipeline options ("tracker.*" keys)
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
@@ -65,7 +77,8 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* options);
 
 /// Nodelet `pl_slam/StereoSlamNodelet`. Inputs: left/image, right/image (image_transport),
 /// left/camera_info, right/camera_info (unless use_camera_info is false). Outputs (private
-/// namespace): odom, pose, path, status, TF. Services: save_trajectory, reset.
+/// namespace): odom, pose, path, status, markers, debug_image, TF. Services: save_trajectory,
+/// save_map, set_localization_only, reset.
 ///
 /// Bad input never stops the nodelet: a pair with an unsupported encoding, sizes that differ
 /// or an unusable camera_info is refused with a throttled warning (one per kind of problem
@@ -99,6 +112,18 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   void WorkerLoop();
   void ProcessOne(const StereoFrame& frame, const std_msgs::Header& header);
   void Publish(const FrameResult& result, const std_msgs::Header& header);
+  /// Markers and the keyframe path from a map snapshot: at most markers_rate, only when the
+  /// map (or, for the path, the pose) changed. Worker thread, system_mutex_ held.
+  void PublishMap(const std_msgs::Header& header);
+  /// The debug image, when subscribed, at most debug_image_rate. Worker thread.
+  void PublishDebugImage(const StereoFrame& frame, const FrameResult& result,
+                         const std_msgs::Header& header);
+  /// Creates the core for `camera` (map_file loaded, localisation-only mode applied). Throws.
+  void StartSystemLocked(const StereoCamera& camera);
+  /// SlamSystem::Reset, then map_file again when one was given. system_mutex_ held.
+  void ResetSystemLocked();
+  bool OnSaveMap(pl_slam::SaveMap::Request& req, pl_slam::SaveMap::Response& res);
+  bool OnSetLocalizationOnly(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res);
   bool OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
                         pl_slam::SaveTrajectory::Response& res);
   bool OnReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
@@ -123,8 +148,10 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   std::unique_ptr<message_filters::Synchronizer<ExactImagesPolicy>> exact_images_sync_;
   std::unique_ptr<message_filters::Synchronizer<ApproxImagesPolicy>> approx_images_sync_;
 
-  ros::Publisher odom_pub_, pose_pub_, path_pub_, status_pub_;
-  ros::ServiceServer save_srv_, reset_srv_;
+  ros::Publisher odom_pub_, pose_pub_, path_pub_, status_pub_, markers_pub_;
+  std::unique_ptr<image_transport::ImageTransport> private_it_;
+  image_transport::Publisher debug_pub_;
+  ros::ServiceServer save_srv_, reset_srv_, save_map_srv_, localization_srv_;
   ros::WallTimer input_check_timer_;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
@@ -161,7 +188,14 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   std::optional<SE3> T_base_cam_;
   int64_t last_stamp_ns_ = -1;
   uint32_t frames_processed_ = 0;
-  nav_msgs::Path path_;
+  nav_msgs::Path path_;  // per-frame path, used while the map has no keyframes (mapping off)
+  bool localization_only_ = false;  // wanted mode, applied to every SlamSystem created
+  // Map publishing state (worker thread).
+  uint64_t published_map_version_ = UINT64_MAX;  // UINT64_MAX = publish at the next chance
+  nav_msgs::Path keyframe_path_;                 // from the last snapshot, base poses in map
+  bool path_pose_pending_ = false;               // a new pose since the last ~path
+  ros::WallTime last_map_publish_, last_debug_image_;
+  std::optional<geometry_msgs::PoseStamped> current_pose_;
 };
 
 }  // namespace ros_layer
