@@ -114,7 +114,7 @@ void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Key
     return;
   const SE3 T_w_new = est.T_cur_prev.inverse();
   const SE3 correction = T_w_new.inverse() * kf->T_w_c;
-  if (T_w_new.IsFinite() && correction.translation().norm() < ctx.options.track_max_correction &&
+  if (T_w_new.IsFinite() && correction.translation().norm() < ctx.options.refine_max_correction &&
       correction.RotationAngle() < 0.1)
     kf->T_w_c = T_w_new;
 }

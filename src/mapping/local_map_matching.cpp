@@ -125,7 +125,7 @@ LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures&
   const SE3 T_w_c = est.T_cur_prev.inverse();
   const SE3 correction = T_w_c_prior.inverse() * T_w_c;
   if (!T_w_c.IsFinite() || correction.translation().norm() > options.track_max_correction ||
-      correction.RotationAngle() > 0.2) {
+      correction.RotationAngle() * 180.0 / M_PI > options.track_max_correction_deg) {
     result.failure = "local-map correction too large; frame-to-frame pose kept";
     return result;
   }

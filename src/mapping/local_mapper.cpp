@@ -20,6 +20,7 @@ std::string MappingOptions::Validate() const {
   if (e.empty()) e = CheckRange("max_fixed_keyframes", max_fixed_keyframes, 0, 1000);
   if (e.empty()) e = CheckRange("refine_min_inliers", refine_min_inliers, 6, 10000);
   if (e.empty()) e = CheckRange("search_radius", search_radius, 0.0, 200.0, true);
+  if (e.empty()) e = CheckRange("refine_max_correction", refine_max_correction, 0.0, 100.0, true);
   if (e.empty()) e = CheckRange("local_map_keyframes", local_map_keyframes, 0, 1000);
   if (e.empty()) e = CheckRange("cull_after_keyframes", cull_after_keyframes, 1, 1000);
   if (e.empty()) e = CheckRange("min_observations", min_observations, 1, 100);
@@ -28,6 +29,8 @@ std::string MappingOptions::Validate() const {
   if (e.empty()) e = CheckRange("line_weight", line_weight, 0.0, 100.0, true);
   if (e.empty()) e = CheckRange("track_min_inliers", track_min_inliers, 6, 10000);
   if (e.empty()) e = CheckRange("track_max_correction", track_max_correction, 0.0, 100.0, true);
+  if (e.empty())
+    e = CheckRange("track_max_correction_deg", track_max_correction_deg, 0.0, 180.0, true);
   if (!e.empty()) return e;
   e = ba.Validate();
   if (!e.empty()) return "ba." + e;

@@ -146,6 +146,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "refine a new keyframe's pose against the previous keyframe");
   t.Add("mapping.refine_min_inliers", &mp.refine_min_inliers,
         "inliers needed to accept that refinement");
+  t.Add("mapping.refine_max_correction", &mp.refine_max_correction,
+        "largest accepted refinement of a keyframe pose, m");
   t.Add("mapping.search_radius", &mp.search_radius, "local-map search radius, px");
   t.Add("mapping.local_map_keyframes", &mp.local_map_keyframes,
         "covisible keyframes whose landmarks form the local map");
@@ -165,6 +167,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "tracking also matches the local map (bounded drift)");
   t.Add("mapping.track_min_inliers", &mp.track_min_inliers,
         "local-map inliers needed to correct the frame-to-frame pose");
+  t.Add("mapping.track_max_correction_deg", &mp.track_max_correction_deg,
+        "largest accepted local-map rotation correction, deg");
   t.Add("mapping.track_max_correction", &mp.track_max_correction,
         "largest accepted local-map correction, m");
   BundleAdjustmentOptions& ba = mp.ba;

@@ -34,6 +34,7 @@ struct MappingOptions {
   int max_fixed_keyframes = 20;  ///< other keyframes observing the window's landmarks, held fixed
   bool refine_against_previous = true;  ///< refine a new keyframe's pose against the previous one
   int refine_min_inliers = 30;          ///< fewer inliers: keep the tracked pose
+  double refine_max_correction = 0.3;   ///< larger refinement (m) of a keyframe pose is refused
   double search_radius = 8.0;           ///< local-map search radius, pixels at octave 0
   int local_map_keyframes = 10;         ///< covisible keyframes whose landmarks form the local map
   int cull_after_keyframes = 3;  ///< a landmark still seen by < min_observations keyframes this
@@ -41,14 +42,20 @@ struct MappingOptions {
   int min_observations = 2;      ///< see cull_after_keyframes
   bool cull_keyframes = true;    ///< remove redundant keyframes
   double redundant_ratio = 0.9;  ///< redundant: this share of its landmarks seen by enough others
-  int redundant_min_observers = 3;    ///< "enough others"
-  bool stereo_residuals = true;       ///< BA also uses the right image of stereo observations
-  double line_weight = 1.0;           ///< information of a line residual relative to a point's
-  bool track_local_map = true;        ///< tracking also matches the local map (bounded drift)
-  int track_min_inliers = 20;         ///< fewer local-map inliers: keep the frame-to-frame pose
-  double track_max_correction = 0.3;  ///< larger local-map correction (m) is refused as a mismatch
-  BundleAdjustmentOptions ba;         ///< "ba.*"
-  MapOptions map;                     ///< "map.*"
+  int redundant_min_observers = 3;  ///< "enough others"
+  bool stereo_residuals = true;     ///< BA also uses the right image of stereo observations
+  double line_weight = 1.0;         ///< information of a line residual relative to a point's
+  bool track_local_map = true;      ///< tracking also matches the local map (bounded drift)
+  int track_min_inliers = 20;       ///< fewer local-map inliers: keep the frame-to-frame pose
+  /// Larger local-map correction (m) is refused as a mismatch. Drift between frames is well
+  /// below a millimetre; corrections of centimetres came from poorly constrained local-map
+  /// estimates (fast turns) and made the trajectory jitter. Large map changes (loops) reach
+  /// tracking by re-anchoring to the reference keyframe instead.
+  double track_max_correction = 0.02;
+  /// Larger local-map rotation correction (deg) is refused as a mismatch too.
+  double track_max_correction_deg = 0.25;
+  BundleAdjustmentOptions ba;  ///< "ba.*"
+  MapOptions map;              ///< "map.*"
   /// Empty when valid, else "key=value must be ..." naming the first bad key.
   std::string Validate() const;
 };
