@@ -337,6 +337,12 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
     if (!s.local_map.point_ids.empty() || !s.local_map.line_ids.empty()) {
       tracked = TrackLocalMap(s.camera, s.tracker->last_features(), s.local_map, r.T_w_c, mo,
                               s.front_end);
+      const int vo_inliers = r.point_inliers + r.line_inliers;
+      if (tracked.success &&
+          tracked.point_inliers + tracked.line_inliers < mo.track_min_inlier_ratio * vo_inliers) {
+        tracked.success = false;
+        tracked.failure = "fewer local-map inliers than visual odometry's";
+      }
       if (tracked.success) {
         s.tracker->CorrectPose(tracked.T_w_c);
         s.T_w_c = tracked.T_w_c;

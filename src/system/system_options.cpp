@@ -167,6 +167,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "tracking also matches the local map (bounded drift)");
   t.Add("mapping.track_min_inliers", &mp.track_min_inliers,
         "local-map inliers needed to correct the frame-to-frame pose");
+  t.Add("mapping.track_min_inlier_ratio", &mp.track_min_inlier_ratio,
+        "local-map inliers per frame-to-frame inlier needed to replace the pose");
   t.Add("mapping.track_max_correction_deg", &mp.track_max_correction_deg,
         "largest accepted local-map rotation correction, deg");
   t.Add("mapping.track_max_correction", &mp.track_max_correction,

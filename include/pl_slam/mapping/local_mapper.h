@@ -47,6 +47,10 @@ struct MappingOptions {
   double line_weight = 1.0;         ///< information of a line residual relative to a point's
   bool track_local_map = true;      ///< tracking also matches the local map (bounded drift)
   int track_min_inliers = 20;       ///< fewer local-map inliers: keep the frame-to-frame pose
+  /// The local-map pose replaces the frame-to-frame one only with at least this many inliers
+  /// per frame-to-frame inlier: a map seen through few features (low texture) gives a noisier
+  /// pose than visual odometry's.
+  double track_min_inlier_ratio = 1.0;
   /// Larger local-map correction (m) is refused as a mismatch. Drift between frames is well
   /// below a millimetre; corrections of centimetres came from poorly constrained local-map
   /// estimates (fast turns) and made the trajectory jitter. Large map changes (loops) reach
