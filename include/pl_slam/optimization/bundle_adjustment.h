@@ -19,8 +19,10 @@ namespace pl_slam {
 
 /// Options of SolveBundleAdjustment.
 struct BundleAdjustmentOptions {
-  int max_iterations = 5;            ///< Levenberg-Marquardt iterations per pass
-  bool second_pass = true;           ///< re-optimise without the outliers of the first pass
+  int max_iterations = 5;  ///< Levenberg-Marquardt iterations per pass
+  /// Re-optimise without the outliers of the first pass. Off by default: on the benchmark
+  /// sequences it changed ATE by under 0.3 mm and doubled the time of local BA.
+  bool second_pass = false;
   double point_chi2_mono = 5.991;    ///< outlier above this squared whitened residual, 2 dof (95 %)
   double point_chi2_stereo = 7.815;  ///< same, 3 dof
   double line_chi2_mono = 5.991;     ///< lines, 2 dof
