@@ -10,22 +10,14 @@
 #include "pl_slam/loop/loop_features.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/util/error.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
 
 constexpr double kDeg = 180.0 / M_PI;
 
-StereoCamera TestCamera() {
-  StereoCamera cam;
-  cam.fx = cam.fy = 450.0;
-  cam.cx = 375.5;
-  cam.cy = 239.5;
-  cam.baseline = 0.11;
-  cam.width = 752;
-  cam.height = 480;
-  return cam;
-}
+StereoCamera TestCamera() { return testing_util::EurocSizedCamera(); }
 
 void RandomRow(cv::Mat* m, int row, std::mt19937_64* rng) {
   for (int b = 0; b < 32; ++b) m->at<uint8_t>(row, b) = static_cast<uint8_t>((*rng)() & 0xff);

@@ -11,6 +11,7 @@
 #include "pl_slam/matching/line_matching.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/util/error.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
@@ -18,16 +19,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 namespace fs = std::filesystem;
 
-StereoCamera TestCamera() {
-  StereoCamera cam;
-  cam.fx = cam.fy = 450.0;
-  cam.cx = 375.5;
-  cam.cy = 239.5;
-  cam.baseline = 0.11;
-  cam.width = 752;
-  cam.height = 480;
-  return cam;
-}
+StereoCamera TestCamera() { return testing_util::EurocSizedCamera(); }
 
 // A planar quad in the left camera frame (corners in order) with a grey level.
 struct Quad {

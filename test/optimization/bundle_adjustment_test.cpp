@@ -7,20 +7,12 @@
 #include "pl_slam/optimization/bundle_adjustment.h"
 #include "pl_slam/optimization/line_cost.h"
 #include "pl_slam/util/error.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
 
-StereoCamera Camera() {
-  StereoCamera c;
-  c.fx = c.fy = 450;
-  c.cx = 376;
-  c.cy = 240;
-  c.baseline = 0.11;
-  c.width = 752;
-  c.height = 480;
-  return c;
-}
+StereoCamera Camera() { return testing_util::EurocSizedCamera(); }
 
 struct Scene {
   std::vector<SE3, Eigen::aligned_allocator<SE3>> poses;  // T_w_c, truth

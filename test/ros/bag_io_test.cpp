@@ -10,6 +10,7 @@
 #include "pl_slam/ros/bag_io.h"
 #include "pl_slam/ros/conversions.h"
 #include "pl_slam/util/error.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace ros_layer {
@@ -23,16 +24,7 @@ class TempDir : public testing_util::TempDir {
   TempDir() : testing_util::TempDir("bag_test") {}
 };
 
-StereoCamera TestCamera() {
-  StereoCamera c;
-  c.fx = c.fy = 100.0;
-  c.cx = 31.5;
-  c.cy = 23.5;
-  c.baseline = 0.1;
-  c.width = 64;
-  c.height = 48;
-  return c;
-}
+StereoCamera TestCamera() { return testing_util::CenteredCamera(100.0, 0.1, 64, 48); }
 
 cv::Mat RandomImage(int seed) {
   cv::Mat m(48, 64, CV_8UC1);

@@ -7,21 +7,13 @@
 #include "pl_slam/ros/camera_info_rectifier.h"
 #include "pl_slam/ros/conversions.h"
 #include "pl_slam/util/error.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace ros_layer {
 namespace {
 
-StereoCamera Rectified() {
-  StereoCamera c;
-  c.fx = c.fy = 300.0;
-  c.cx = 159.5;
-  c.cy = 119.5;
-  c.baseline = 0.12;
-  c.width = 320;
-  c.height = 240;
-  return c;
-}
+StereoCamera Rectified() { return testing_util::CenteredCamera(300.0, 0.12, 320, 240); }
 
 // A raw pair: distorted plumb_bob cameras, slightly rotated by the rectification, sharing the
 // rectified projection of Rectified().

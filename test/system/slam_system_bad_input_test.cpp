@@ -4,20 +4,12 @@
 
 #include "pl_slam/system/slam_system.h"
 #include "pl_slam/util/error.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
 
-StereoCamera Camera() {
-  StereoCamera c;
-  c.fx = c.fy = 450.0;
-  c.cx = 376.0;
-  c.cy = 240.0;
-  c.baseline = 0.11;
-  c.width = 752;
-  c.height = 480;
-  return c;
-}
+StereoCamera Camera() { return testing_util::EurocSizedCamera(); }
 
 StereoFrame Frame(const cv::Mat& l, const cv::Mat& r, int i) {
   StereoFrame f;
