@@ -71,16 +71,25 @@ cleanup() {
 }
 trap 'cleanup; write_junit' EXIT
 
-# A free X display: no lock file and no socket.
+# A free X display: no lock file and no socket. Another X server (e.g. in a container or chroot
+# sharing the abstract socket namespace) can hold a display without either, so a display where
+# Xvfb fails to start is skipped for the next one.
 display=""
 for n in $(seq 91 199); do
-  if [ ! -e "/tmp/.X${n}-lock" ] && [ ! -e "/tmp/.X11-unix/X${n}" ]; then display=":${n}"; break; fi
+  if [ -e "/tmp/.X${n}-lock" ] || [ -e "/tmp/.X11-unix/X${n}" ]; then continue; fi
+  Xvfb ":${n}" -screen 0 1280x800x24 -nolisten tcp > "${logs}/xvfb.log" 2>&1 &
+  xvfb_pid=$!
+  for _ in $(seq 50); do
+    { [ -e "/tmp/.X11-unix/X${n}" ] || ! kill -0 "${xvfb_pid}" 2>/dev/null; } && break
+    sleep 0.1
+  done
+  if kill -0 "${xvfb_pid}" 2>/dev/null && [ -e "/tmp/.X11-unix/X${n}" ]; then
+    pids+=("${xvfb_pid}"); display=":${n}"; break
+  fi
+  kill "${xvfb_pid}" 2>/dev/null || true
+  echo "[rviz] Xvfb could not start on :${n}; trying the next display"
 done
-[ -n "${display}" ] || { echo "rviz_screenshot.sh: error: no free X display in :91-:199" >&2; exit 1; }
-Xvfb "${display}" -screen 0 1280x800x24 -nolisten tcp > "${logs}/xvfb.log" 2>&1 &
-pids+=($!)
-for _ in $(seq 50); do [ -e "/tmp/.X11-unix/X${display#:}" ] && break; sleep 0.1; done
-[ -e "/tmp/.X11-unix/X${display#:}" ] || { echo "rviz_screenshot.sh: error: Xvfb did not start on ${display} (see ${logs}/xvfb.log)" >&2; exit 1; }
+[ -n "${display}" ] || { echo "rviz_screenshot.sh: error: Xvfb did not start on any display in :91-:199 (see ${logs}/xvfb.log)" >&2; exit 1; }
 export DISPLAY="${display}"
 
 port="$(bash "${HERE}/free_port.sh")"
