@@ -167,6 +167,14 @@ bool KeyframeDatabase::Contains(int id) const {
   return slot_of_id_.count(id) > 0;
 }
 
+bool KeyframeDatabase::ScoreAgainst(const KeyframeBow& query, int id, double* score) const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = slot_of_id_.find(id);
+  if (it == slot_of_id_.end()) return false;
+  *score = CombinedScore(query, entries_[it->second].bow, options_.line_weight);
+  return true;
+}
+
 std::size_t KeyframeDatabase::size() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return slot_of_id_.size();

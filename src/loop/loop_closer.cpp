@@ -6,7 +6,6 @@
 #include <mutex>
 #include <set>
 #include <thread>
-#include <unordered_map>
 #include <unordered_set>
 
 #include "pl_slam/util/error.h"
@@ -47,7 +46,7 @@ struct LoopCloser::Impl {
   Map* map = nullptr;
   PointLineVocabulary vocabulary;
   KeyframeDatabase database;
-  // Lock order: `mutex` (queue, detections, stats, bows, groups) is never held while taking
+  // Lock order: `mutex` (queue, detections, stats, groups) is never held while taking
   // the map's lock or the database's; the map's lock is a leaf.
   mutable std::mutex mutex;
   std::condition_variable work_cv, idle_cv;
@@ -55,7 +54,6 @@ struct LoopCloser::Impl {
   bool busy = false, stop = false;
   std::deque<LoopDetection> detections;
   LoopStats stats;
-  std::unordered_map<KeyframeId, KeyframeBow> bows;  // of keyframes in the database
   // Candidate groups (candidate + its covisible keyframes) of the previous query, with how
   // many consecutive keyframes they have been seen by.
   std::vector<std::pair<std::set<KeyframeId>, int>> groups;
@@ -84,15 +82,11 @@ struct LoopCloser::Impl {
     // are dropped from its results, so the query stays an inverted-index lookup.
     double best_neighbour = 0.0;
     std::unordered_set<int> exclude;
-    {
-      std::lock_guard<std::mutex> lock(mutex);
-      for (const auto& [k, n] : covisible) {
-        exclude.insert(static_cast<int>(k));
-        auto it = bows.find(k);
-        if (it != bows.end())
-          best_neighbour = std::max(best_neighbour,
-                                    CombinedScore(bow, it->second, options.database.line_weight));
-      }
+    for (const auto& [k, n] : covisible) {
+      exclude.insert(static_cast<int>(k));
+      double score = 0.0;
+      if (database.ScoreAgainst(bow, static_cast<int>(k), &score))
+        best_neighbour = std::max(best_neighbour, score);
     }
     std::vector<LoopCandidate> candidates;
     for (const LoopCandidate& c :
@@ -107,7 +101,6 @@ struct LoopCloser::Impl {
     std::vector<KeyframeId> ready;
     {
       std::lock_guard<std::mutex> lock(mutex);
-      bows[id] = bow;
       ++stats.keyframes_queried;
       stats.query_ms.push_back(MsSince(t0));
     }
@@ -120,8 +113,6 @@ struct LoopCloser::Impl {
         if (!map->KeyframeLocked(c.id)) {
           lock.unlock();
           database.Remove(c.id);
-          std::lock_guard<std::mutex> l(mutex);
-          bows.erase(c.id);
           continue;
         }
         for (const auto& [k, n] : map->CovisibleLocked(c.id, 1)) group.insert(k);
@@ -296,10 +287,7 @@ void LoopCloser::IndexMap() {
     for (const auto& [id, kf] : s.map->KeyframesLocked()) keyframes.push_back(kf);
   }
   for (const auto& kf : keyframes) {
-    const KeyframeBow bow = s.Bow(kf->features);
-    s.database.Add(static_cast<int>(kf->id), bow);
-    std::lock_guard<std::mutex> lock(s.mutex);
-    s.bows[kf->id] = bow;
+    s.database.Add(static_cast<int>(kf->id), s.Bow(kf->features));
   }
 }
 
@@ -309,7 +297,6 @@ void LoopCloser::Clear() {
     impl_->queue.clear();
     impl_->idle_cv.wait(lock, [this] { return impl_->stop || !impl_->busy; });
     impl_->detections.clear();
-    impl_->bows.clear();
     impl_->groups.clear();
   }
   impl_->database.Clear();

@@ -88,6 +88,9 @@ class KeyframeDatabase {
   void Clear();
   /// True when keyframe `id` is in the database.
   bool Contains(int id) const;
+  /// Combined score of `query` against keyframe `id` (CombinedScore with the options' line
+  /// weight); false when `id` is not in the database.
+  bool ScoreAgainst(const KeyframeBow& query, int id, double* score) const;
   /// Number of keyframes.
   std::size_t size() const;
 
