@@ -49,6 +49,9 @@ if [ "${verdict}" -ne 0 ]; then
 fi
 summary_rc=0
 /usr/bin/python3 "${HERE}/summarize_junit.py" "${results}" || summary_rc=$?
+if [ "${format_rc}" -ne 0 ]; then
+  echo "run_tests.sh: FAILED: code style (scripts/check_format.sh lists the files; --fix rewrites them)" >&2
+fi
 if [ "${build_rc}" -ne 0 ] || [ "${verdict}" -ne 0 ] || [ "${summary_rc}" -ne 0 ] || [ "${format_rc}" -ne 0 ]; then
   exit 1
 fi

@@ -3,6 +3,9 @@
 // ground truth of the left camera when the dataset has one (TUM), and a per-frame timing CSV.
 #include <algorithm>
 #include <chrono>
+#include <condition_variable>
+#include <cstdlib>
+#include <mutex>
 #include <thread>
 
 #include <unistd.h>
@@ -41,7 +44,12 @@ constexpr char kUsage[] =
     "  --print-config        print every option with its value and meaning, then exit\n"
     "  --quiet               only the summary\n"
     "  --realtime            feed frames at the recording's rate (live-like threaded mapping)\n"
-    "  --memory-every N      every N frames, log resident memory and map size to DIR/memory.csv\n"
+    "  --memory-every N      every N frames, log resident memory, map size and mapping queue\n"
+    "                        length to DIR/memory.csv\n"
+    "  --watchdog S          abort (exit 3) when one frame takes more than S seconds (soak runs)\n"
+    "  --load-map FILE       start in a saved map (relocalises first; see --localization-only)\n"
+    "  --localization-only   track in the map without adding keyframes\n"
+    "  --save-map FILE       save the map at the end (atomic; versioned, checksummed)\n"
     "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
     "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
 
@@ -93,11 +101,76 @@ std::string TimingCsv(const std::vector<TimingRow>& rows) {
   return os.str();
 }
 
+/// Aborts the process when a frame takes longer than the limit: a soak run must fail on a
+/// deadlock or a stall instead of hanging. Start()/Stop() around each frame; 0 s = off.
+class Watchdog {
+ public:
+  explicit Watchdog(double limit_s) : limit_s_(limit_s) {
+    if (limit_s_ > 0.0) thread_ = std::thread([this] { Loop(); });
+  }
+  ~Watchdog() {
+    if (!thread_.joinable()) return;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      quit_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  void Start(int frame) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    frame_ = frame;
+    running_ = true;
+    ++generation_;
+    started_ = std::chrono::steady_clock::now();
+    cv_.notify_all();
+  }
+  void Stop() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    running_ = false;
+  }
+
+ private:
+  void Loop() {
+    std::unique_lock<std::mutex> lock(mutex_);
+    const auto limit = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(limit_s_));
+    while (!quit_) {
+      if (!running_) {
+        cv_.wait(lock, [this] { return quit_ || running_; });
+        continue;
+      }
+      const uint64_t generation = generation_;
+      const auto deadline = started_ + limit;
+      cv_.wait_until(lock, deadline,
+                     [&] { return quit_ || !running_ || generation_ != generation; });
+      if (running_ && generation_ == generation && std::chrono::steady_clock::now() >= deadline) {
+        std::cerr << "pl_slam_offline: watchdog: "
+                  << (frame_ < 0 ? std::string("the final flush")
+                                 : "frame " + std::to_string(frame_))
+                  << " took more than " << limit_s_ << " s (deadlock or stall); aborting"
+                  << std::endl;
+        std::_Exit(3);
+      }
+      // Stop() does not notify: a finished frame is seen at its deadline or the next Start().
+    }
+  }
+  double limit_s_;
+  std::thread thread_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool quit_ = false, running_ = false;
+  int frame_ = 0;
+  uint64_t generation_ = 0;
+  std::chrono::steady_clock::time_point started_;
+};
+
 int Run(int argc, char** argv) {
-  const pl_slam::CommandLine cl(argc, argv,
-                                {"out", "max-frames", "left-topic", "right-topic", "left-info",
-                                 "right-info", "gt-topic", "config", "mode", "set", "memory-every"},
-                                {"quiet", "help", "print-config", "realtime"});
+  const pl_slam::CommandLine cl(
+      argc, argv,
+      {"out", "max-frames", "left-topic", "right-topic", "left-info", "right-info", "gt-topic",
+       "config", "mode", "set", "memory-every", "watchdog", "load-map", "save-map"},
+      {"quiet", "help", "print-config", "realtime", "localization-only"});
   if (cl.Has("help")) {
     std::cout << kUsage;
     return 0;
@@ -150,6 +223,11 @@ int Run(int argc, char** argv) {
             << cam.width << "x" << cam.height << ", fx=" << cam.fx << " baseline=" << cam.baseline
             << " m, mode " << pl_slam::FeatureModeName(options.tracker.mode) << "\n";
   pl_slam::SlamSystem system(cam, options);
+  if (cl.Has("load-map")) system.LoadMap(cl.Get("load-map", ""));
+  if (cl.Has("localization-only")) system.SetLocalizationOnly(true);
+  const double watchdog_s = cl.GetDouble("watchdog", 0.0);
+  if (!(watchdog_s >= 0.0)) throw pl_slam::ConfigError("--watchdog: must be >= 0 seconds");
+  Watchdog watchdog(watchdog_s);
 
   std::filesystem::create_directories(out_dir);
   std::vector<TimingRow> rows;
@@ -158,8 +236,13 @@ int Run(int argc, char** argv) {
   pl_slam::StereoFrame frame;
   const bool realtime = cl.Has("realtime");
   const int memory_every = cl.GetInt("memory-every", 0);
-  std::ostringstream memory_csv;
-  memory_csv << "frame,rss_mb,keyframes,points,lines,culled_keyframes\n";
+  // Written row by row (flushed), so a long run that is stopped or aborts keeps its record.
+  std::ofstream memory_csv;
+  if (memory_every > 0) {
+    memory_csv.open(out_dir + "/memory.csv", std::ios::trunc);
+    if (!memory_csv) throw pl_slam::InputError(out_dir + "/memory.csv: cannot write");
+    memory_csv << "frame,rss_mb,keyframes,points,lines,culled_keyframes,mapping_queue" << std::endl;
+  }
   const auto wall_start = std::chrono::steady_clock::now();
   double first_stamp = -1.0;
   while ((max_frames < 0 || static_cast<int>(rows.size()) < max_frames) && source->Next(&frame)) {
@@ -169,7 +252,9 @@ int Run(int argc, char** argv) {
           wall_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
                            std::chrono::duration<double>(frame.stamp_s() - first_stamp)));
     }
+    watchdog.Start(frame.index);
     const pl_slam::FrameResult r = system.Process(frame);
+    watchdog.Stop();
     rows.push_back({frame.index, frame.stamp_s(), pl_slam::TrackingStateName(r.state),
                     r.points_detected, r.lines_detected, r.point_inliers, r.line_inliers,
                     r.stage_ms, r.total_ms});
@@ -177,16 +262,22 @@ int Run(int argc, char** argv) {
     if (memory_every > 0 && static_cast<int>(rows.size()) % memory_every == 0) {
       const pl_slam::MapCounts mc = system.map().counts();
       memory_csv << rows.size() << "," << ResidentMegabytes() << "," << mc.keyframes << ","
-                 << mc.points << "," << mc.lines << "," << mc.culled_keyframes << "\n";
+                 << mc.points << "," << mc.lines << "," << mc.culled_keyframes << ","
+                 << system.mapping_stats().queue_length << std::endl;
     }
     if (!r.pose_valid) ++lost;
   }
+  watchdog.Start(-1);
   system.Flush();  // the keyframes still queued for mapping
+  watchdog.Stop();
+  if (cl.Has("save-map")) {
+    system.SaveMap(cl.Get("save-map", ""));
+    std::cout << "wrote map " << cl.Get("save-map", "") << "\n";
+  }
   const pl_slam::Trajectory traj = system.trajectory();
   const std::string traj_path = out_dir + "/trajectory.tum";
   pl_slam::WriteTrajectory(traj_path, traj, pl_slam::TrajectoryFormat::kTum);
   pl_slam::WriteFileAtomic(out_dir + "/timing.csv", TimingCsv(rows));
-  if (memory_every > 0) pl_slam::WriteFileAtomic(out_dir + "/memory.csv", memory_csv.str());
   // Every frame read (tracked or not): what coverage is measured against.
   std::ostringstream frame_times;
   frame_times << std::fixed << std::setprecision(9);
@@ -213,11 +304,12 @@ int Run(int argc, char** argv) {
     const pl_slam::LoopStats ls = system.loop_stats();
     std::cout << "loops: " << ls.loops_detected << " detected, " << ls.loops_corrected
               << " corrected, " << ls.candidates_verified << " candidates verified, "
-              << ls.relocalizations << " relocalisations; query median "
-              << Percentile(ls.query_ms, 0.5) << " ms, correction median "
-              << Percentile(ls.correction_ms, 0.5) << " ms\n";
+              << ls.relocalizations << " relocalisations, " << ls.database_keyframes
+              << " keyframes in the database; query median " << Percentile(ls.query_ms, 0.5)
+              << " ms, correction median " << Percentile(ls.correction_ms, 0.5) << " ms\n";
     for (const auto& l : ls.loops)
-      std::cout << "  loop: keyframe " << l.query << " -> " << l.candidate << " (" << l.inliers
+      std::cout << "  loop: keyframe " << l.query << " -> " << l.candidate << " (frames "
+                << l.query_frame << " -> " << l.candidate_frame << ", " << l.inliers
                 << " inliers)\n";
   }
   return 0;

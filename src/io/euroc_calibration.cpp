@@ -109,7 +109,12 @@ std::string RawCameraCalibration::Validate() const {
 }
 
 RawCameraCalibration ReadEurocCameraYaml(const std::string& path) {
-  std::string content = text::ReadFile(path);
+  return ParseEurocCameraYaml(text::ReadFile(path), path);
+}
+
+RawCameraCalibration ParseEurocCameraYaml(const std::string& file_content,
+                                          const std::string& path) {
+  std::string content = file_content;
   // OpenCV-style files start with "%YAML:1.0", which is not a valid YAML directive; comment it
   // out (keeping line numbers) so yaml-cpp parses both flavours.
   if (content.rfind("%YAML:", 0) == 0) content.insert(0, "#");

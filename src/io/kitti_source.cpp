@@ -45,7 +45,11 @@ std::vector<std::string> ListPngs(const fs::path& dir) {
 }  // namespace
 
 StereoCamera ReadKittiCalibration(const std::string& path, int width, int height) {
-  const std::string content = text::ReadFile(path);
+  return ParseKittiCalibration(text::ReadFile(path), path, width, height);
+}
+
+StereoCamera ParseKittiCalibration(const std::string& content, const std::string& path, int width,
+                                   int height) {
   const auto lines = text::SplitLines(content);
   std::map<std::string, std::array<double, 12>> P;
   for (std::size_t i = 0; i < lines.size(); ++i) {
@@ -95,7 +99,10 @@ StereoCamera ReadKittiCalibration(const std::string& path, int width, int height
 }
 
 std::vector<double> ReadKittiTimes(const std::string& path) {
-  const std::string content = text::ReadFile(path);
+  return ParseKittiTimes(text::ReadFile(path), path);
+}
+
+std::vector<double> ParseKittiTimes(const std::string& content, const std::string& path) {
   const auto lines = text::SplitLines(content);
   std::vector<double> times;
   for (std::size_t i = 0; i < lines.size(); ++i) {

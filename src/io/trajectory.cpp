@@ -78,7 +78,10 @@ TrajectoryFormat ParseTrajectoryFormat(const std::string& name) {
 }
 
 Trajectory ReadTumTrajectory(const std::string& path) {
-  const std::string content = text::ReadFile(path);
+  return ParseTumTrajectory(text::ReadFile(path), path);
+}
+
+Trajectory ParseTumTrajectory(const std::string& content, const std::string& path) {
   const auto lines = text::SplitLines(content);
   Trajectory traj;
   for (std::size_t i = 0; i < lines.size(); ++i) {
@@ -102,7 +105,11 @@ Trajectory ReadTumTrajectory(const std::string& path) {
 }
 
 Trajectory ReadKittiTrajectory(const std::string& path, const std::vector<double>& times) {
-  const std::string content = text::ReadFile(path);
+  return ParseKittiTrajectory(text::ReadFile(path), path, times);
+}
+
+Trajectory ParseKittiTrajectory(const std::string& content, const std::string& path,
+                                const std::vector<double>& times) {
   const auto lines = text::SplitLines(content);
   Trajectory traj;
   for (std::size_t i = 0; i < lines.size(); ++i) {
@@ -145,7 +152,10 @@ Trajectory ReadKittiTrajectory(const std::string& path, const std::vector<double
 }
 
 Trajectory ReadEurocTrajectory(const std::string& path) {
-  const std::string content = text::ReadFile(path);
+  return ParseEurocTrajectory(text::ReadFile(path), path);
+}
+
+Trajectory ParseEurocTrajectory(const std::string& content, const std::string& path) {
   const auto lines = text::SplitLines(content);
   Trajectory traj;
   for (std::size_t i = 0; i < lines.size(); ++i) {

@@ -180,6 +180,15 @@ std::size_t KeyframeDatabase::size() const {
   return slot_of_id_.size();
 }
 
+std::vector<int> KeyframeDatabase::ids() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::vector<int> out;
+  out.reserve(slot_of_id_.size());
+  for (const auto& [id, slot] : slot_of_id_) out.push_back(id);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 std::vector<LoopCandidate> KeyframeDatabase::Query(const KeyframeBow& query, int max_results,
                                                    const std::unordered_set<int>* exclude) const {
   std::lock_guard<std::mutex> lock(mutex_);

@@ -374,6 +374,16 @@ LocalMap Map::GetLocalMap(KeyframeId reference, int max_neighbours) const {
       local.line_ids.push_back(lm_id);
       line_rows.push_back(lm->descriptor);
     }
+    if (kf_id == reference) {
+      for (LandmarkId lm_id : kf->point_landmarks) {
+        const auto lm = lm_id == kNoId ? nullptr : PointLocked(lm_id);
+        if (lm && lm->observations.size() >= 3) ++local.reference_landmarks;
+      }
+      for (LandmarkId lm_id : kf->line_landmarks) {
+        const auto lm = lm_id == kNoId ? nullptr : LineLocked(lm_id);
+        if (lm && lm->observations.size() >= 3) ++local.reference_landmarks;
+      }
+    }
   }
   if (!point_rows.empty()) cv::vconcat(point_rows, local.point_descriptors);
   if (!line_rows.empty()) cv::vconcat(line_rows, local.line_descriptors);

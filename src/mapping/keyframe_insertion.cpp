@@ -144,6 +144,60 @@ void SearchLocalMap(const Context& ctx, Keyframe* kf) {
     map.AddLineObservationLocked(local.line_ids[i], kf->id, j);
 }
 
+/// Fuses duplicated landmarks: the local map's landmarks that the keyframe does not observe are
+/// projected into it and matched with its features that already have a landmark. Such a
+/// match is one physical point or segment mapped twice (a revisit tracked without a loop
+/// closure, a feature the local-map search missed); the landmark with fewer observations is
+/// merged into the other, provided the two agree in 3D. Without this, every revisit adds a
+/// copy of what it sees, and keyframes holding copies never become redundant.
+void FuseDuplicates(const Context& ctx, Keyframe* kf) {
+  Map& map = *ctx.map;
+  const LocalMap local = map.GetLocalMap(kf->id, ctx.options.local_map_keyframes);
+  LocalMapMasks masks;
+  std::unordered_set<LandmarkId> own_points, own_lines;
+  {
+    auto lock = map.Lock();
+    own_points.insert(kf->point_landmarks.begin(), kf->point_landmarks.end());
+    own_lines.insert(kf->line_landmarks.begin(), kf->line_landmarks.end());
+    for (LandmarkId id : kf->point_landmarks) masks.skip_feature_points.push_back(id == kNoId);
+    for (LandmarkId id : kf->line_landmarks) masks.skip_feature_lines.push_back(id == kNoId);
+  }
+  for (LandmarkId id : local.point_ids) masks.skip_local_points.push_back(own_points.count(id));
+  for (LandmarkId id : local.line_ids) masks.skip_local_lines.push_back(own_lines.count(id));
+  const LocalMapMatches matches =
+      MatchLocalMap(ctx.camera, local, kf->T_w_c.inverse(), kf->features, masks, ctx.front_end,
+                    ctx.options.search_radius);
+  const Eigen::Vector3d centre = kf->T_w_c.translation();
+  // Same place in 3D: within 5% of the distance to the camera plus 2 cm (stereo depth noise).
+  auto close = [&](const Eigen::Vector3d& a, double distance_to_b) {
+    return distance_to_b <= 0.05 * (a - centre).norm() + 0.02;
+  };
+  auto lock = map.Lock();
+  for (const auto& [i, j] : matches.points) {
+    const LandmarkId other = local.point_ids[i], mine = kf->point_landmarks[j];
+    const auto a = map.PointLocked(other), b = map.PointLocked(mine);
+    if (!a || !b || other == mine || !close(b->p_w, (a->p_w - b->p_w).norm())) continue;
+    if (a->observations.size() >= b->observations.size())
+      map.FusePointLocked(mine, other);
+    else
+      map.FusePointLocked(other, mine);
+  }
+  for (const auto& [i, j] : matches.lines) {
+    const LandmarkId other = local.line_ids[i], mine = kf->line_landmarks[j];
+    const auto a = map.LineLocked(other), b = map.LineLocked(mine);
+    if (!a || !b || other == mine) continue;
+    // b's midpoint must lie near a's infinite line.
+    const Eigen::Vector3d mid = 0.5 * (b->P_w + b->Q_w), d = a->Direction();
+    if (d.isZero()) continue;
+    const Eigen::Vector3d off = (mid - a->P_w) - d * d.dot(mid - a->P_w);
+    if (!close(mid, off.norm())) continue;
+    if (a->observations.size() >= b->observations.size())
+      map.FuseLineLocked(mine, other);
+    else
+      map.FuseLineLocked(other, mine);
+  }
+}
+
 }  // namespace
 
 void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
@@ -199,6 +253,11 @@ void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
     if (f.lines[j].has_depth && kf->line_landmarks[j] == kNoId)
       map.AddLineLocked(kf->T_w_c * f.lines[j].P_c, kf->T_w_c * f.lines[j].Q_c, kf->id,
                         static_cast<int>(j));
+  if (ctx.options.fuse_duplicates) {
+    lock.unlock();
+    FuseDuplicates(ctx, kf.get());
+    lock.lock();
+  }
   // Spanning tree: hang the keyframe from the one it shares most landmarks with.
   const auto covisible = map.CovisibleLocked(kf->id, 1);
   if (!covisible.empty()) kf->parent = covisible.front().first;

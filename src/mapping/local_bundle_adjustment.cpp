@@ -135,6 +135,16 @@ BaSummary LocalBundleAdjustment(const Context& ctx, KeyframeId id) {
     if (const auto l = map.LineLocked(line_ids[i])) {
       l->P_w = problem.line_P[i];
       l->Q_w = problem.line_Q[i];
+      // BA placed the line; its extent comes back from the creating keyframe's observation
+      // (or the oldest one left), so that segments never shrink run after run.
+      auto obs = l->observations.find(l->reference);
+      if (obs == l->observations.end()) obs = l->observations.begin();
+      if (obs == l->observations.end()) continue;
+      const auto kf = map.KeyframeLocked(obs->first);
+      if (!kf || obs->second < 0 || obs->second >= static_cast<int>(kf->features.lines.size()))
+        continue;
+      const LineFeature& f = kf->features.lines[obs->second];
+      AnchorSegmentToObservation(ctx.camera, kf->T_w_c, f.s, f.e, &l->P_w, &l->Q_w);
     }
   for (size_t k = 0; k < point_obs_ids.size(); ++k)
     if (summary.point_outlier[k])

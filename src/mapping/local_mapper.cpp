@@ -32,6 +32,7 @@ std::string MappingOptions::Validate() const {
   if (e.empty()) e = CheckRange("track_max_correction", track_max_correction, 0.0, 100.0, true);
   if (e.empty())
     e = CheckRange("track_max_correction_deg", track_max_correction_deg, 0.0, 180.0, true);
+  if (e.empty()) e = CheckRange("skip_covered_keyframes", skip_covered_keyframes, 0.0, 10.0);
   if (!e.empty()) return e;
   e = ba.Validate();
   if (!e.empty()) return "ba." + e;

@@ -22,6 +22,7 @@ std::string BundleAdjustmentOptions::Validate() const {
   if (e.empty()) e = CheckRange("point_chi2_stereo", point_chi2_stereo, 0.0, 1e6, true);
   if (e.empty()) e = CheckRange("line_chi2_mono", line_chi2_mono, 0.0, 1e6, true);
   if (e.empty()) e = CheckRange("line_chi2_stereo", line_chi2_stereo, 0.0, 1e6, true);
+  if (e.empty()) e = CheckRange("line_extent_weight", line_extent_weight, 0.0, 1e6);
   if (e.empty()) e = CheckRange("min_depth", min_depth, 0.0, 100.0);
   if (e.empty()) e = CheckRange("num_threads", num_threads, 1, 64);
   if (e.empty() && schur != "sparse" && schur != "dense")
@@ -161,7 +162,13 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
       loss = new ceres::HuberLoss(huber_line_mono);
     }
     line_blocks[k] = ceres_problem.AddResidualBlock(cost, loss, pose_params[o.pose].data(), PQ);
-    if (!ordering->IsMember(PQ)) ordering->AddElementToGroup(PQ, 0);
+    if (!ordering->IsMember(PQ)) {
+      ordering->AddElementToGroup(PQ, 0);
+      if (options.line_extent_weight > 0.0)  // holds the endpoints' slide along the line
+        ceres_problem.AddResidualBlock(
+            new LineExtentCost(p.line_P[o.line], p.line_Q[o.line], options.line_extent_weight),
+            nullptr, PQ);
+    }
   }
   // The gauge: fixed poses, or the first used pose when the caller fixed none.
   for (int i = 0; i < np; ++i) {

@@ -1,5 +1,7 @@
 #include "pl_slam/optimization/line_cost.h"
 
+#include <cmath>
+
 #include "pl_slam/geometry/se3.h"
 #include "pl_slam/optimization/se3_manifold.h"
 
@@ -71,5 +73,56 @@ bool LineCost<kResiduals>::Evaluate(double const* const* parameters, double* res
 
 template class LineCost<2>;
 template class LineCost<4>;
+
+bool AnchorSegmentToObservation(const StereoCamera& camera, const SE3& T_w_c,
+                                const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                                Eigen::Vector3d* P_w, Eigen::Vector3d* Q_w) {
+  const Eigen::Vector3d a = *P_w;
+  const double length = (*Q_w - a).norm();
+  if (!(length > 1e-9) || !std::isfinite(length)) return false;
+  const Eigen::Vector3d d = (*Q_w - a) / length;
+  const Eigen::Vector3d C = T_w_c.translation();
+  Eigen::Vector3d out[2];
+  const Eigen::Vector2d px[2] = {s, e};
+  for (int k = 0; k < 2; ++k) {
+    // Closest points of the line a + t d and the ray C + u r (both unit directions).
+    const Eigen::Vector3d r =
+        (T_w_c.rotation() * Eigen::Vector3d((px[k].x() - camera.cx) / camera.fx,
+                                            (px[k].y() - camera.cy) / camera.fy, 1.0))
+            .normalized();
+    const double b = d.dot(r);
+    const double denom = 1.0 - b * b;  // sin^2 of the angle between line and ray
+    if (denom < std::pow(std::sin(2.0 * M_PI / 180.0), 2)) return false;
+    const Eigen::Vector3d w = a - C;
+    const double t = (b * r.dot(w) - d.dot(w)) / denom;
+    const double u = (r.dot(w) - b * d.dot(w)) / denom;
+    if (u <= 0.0) return false;  // behind the camera
+    out[k] = a + t * d;
+  }
+  if ((out[1] - out[0]).norm() < 0.01) return false;
+  *P_w = out[0];
+  *Q_w = out[1];
+  return true;
+}
+
+LineExtentCost::LineExtentCost(const Eigen::Vector3d& P0, const Eigen::Vector3d& Q0, double weight)
+    : P0_(P0), Q0_(Q0), d_(Eigen::Vector3d::Zero()) {
+  const double n = (Q0 - P0).norm();
+  if (n > 1e-9 && std::isfinite(n)) d_ = weight * (Q0 - P0) / n;
+}
+
+bool LineExtentCost::Evaluate(double const* const* parameters, double* residuals,
+                              double** jacobians) const {
+  const Eigen::Map<const Eigen::Vector3d> P(parameters[0]), Q(parameters[0] + 3);
+  residuals[0] = d_.dot(P - P0_);
+  residuals[1] = d_.dot(Q - Q0_);
+  if (jacobians && jacobians[0]) {
+    Eigen::Map<Eigen::Matrix<double, 2, 6, Eigen::RowMajor>> J(jacobians[0]);
+    J.setZero();
+    J.block<1, 3>(0, 0) = d_.transpose();
+    J.block<1, 3>(1, 3) = d_.transpose();
+  }
+  return true;
+}
 
 }  // namespace pl_slam

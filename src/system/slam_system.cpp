@@ -357,7 +357,17 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
   }
   result->stage_ms.emplace_back(
       "local_map", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
-  if (r.is_keyframe && r.pose_valid && !s.localization_only) {
+  if (result->is_keyframe && tracked.success && mo.skip_covered_keyframes > 0.0 &&
+      s.local_map.reference_landmarks > 0 &&
+      (r.keyframe_reason == KeyframeReason::kEntropy ||
+       r.keyframe_reason == KeyframeReason::kLargeMotion ||
+       r.keyframe_reason == KeyframeReason::kMaxFrames) &&
+      tracked.point_inliers + tracked.line_inliers >=
+          mo.skip_covered_keyframes * s.local_map.reference_landmarks) {
+    result->is_keyframe = false;
+    result->keyframe_skipped = true;
+  }
+  if (result->is_keyframe && r.pose_valid && !s.localization_only) {
     KeyframeInput kf;
     kf.id = s.next_keyframe_id++;
     kf.frame_index = frame.index;

@@ -134,6 +134,10 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "keyframe after this translation, m");
   t.Add("tracker.keyframes.max_rotation_deg", &k.max_rotation_deg,
         "keyframe after this rotation, deg");
+  t.Add("tracker.keyframes.min_translation", &k.min_translation,
+        "entropy and frame-count keyframes only after this translation, m (or the rotation)");
+  t.Add("tracker.keyframes.min_rotation_deg", &k.min_rotation_deg,
+        "entropy and frame-count keyframes only after this rotation, deg (or the translation)");
   MappingOptions& mp = options->mapping;
   t.Add("mapping.enabled", &mp.enabled, "build a map (off: visual odometry only)");
   t.Add("mapping.threaded", &mp.threaded,
@@ -163,6 +167,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "bundle adjustment also uses the right image of stereo observations");
   t.Add("mapping.line_weight", &mp.line_weight,
         "information of a line residual relative to a point's in mapping");
+  t.Add("mapping.fuse_duplicates", &mp.fuse_duplicates,
+        "merge landmarks mapped twice (keyframe vs local map) after insertion");
   t.Add("mapping.track_local_map", &mp.track_local_map,
         "tracking also matches the local map (bounded drift)");
   t.Add("mapping.track_min_inliers", &mp.track_min_inliers,
@@ -173,6 +179,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "largest accepted local-map rotation correction, deg");
   t.Add("mapping.track_max_correction", &mp.track_max_correction,
         "largest accepted local-map correction, m");
+  t.Add("mapping.skip_covered_keyframes", &mp.skip_covered_keyframes,
+        "skip a proposed keyframe whose local-map inliers reach this share of the last "
+        "keyframe's landmarks (0 never skips)");
   BundleAdjustmentOptions& ba = mp.ba;
   t.Add("mapping.ba.max_iterations", &ba.max_iterations, "Levenberg-Marquardt iterations per pass");
   t.Add("mapping.ba.second_pass", &ba.second_pass, "re-optimise without the first pass' outliers");
@@ -180,6 +189,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.ba.point_chi2_stereo", &ba.point_chi2_stereo, "point outlier threshold, 3 dof");
   t.Add("mapping.ba.line_chi2_mono", &ba.line_chi2_mono, "line outlier threshold, 2 dof");
   t.Add("mapping.ba.line_chi2_stereo", &ba.line_chi2_stereo, "line outlier threshold, 4 dof");
+  t.Add("mapping.ba.line_extent_weight", &ba.line_extent_weight,
+        "holds line endpoints along their line in BA, per metre (0 = off)");
   t.Add("mapping.ba.min_depth", &ba.min_depth, "observations closer than this (m) are outliers");
   t.Add("mapping.ba.num_threads", &ba.num_threads, "Ceres threads");
   t.Add("mapping.ba.schur", &ba.schur, "reduced camera system solver: sparse or dense");

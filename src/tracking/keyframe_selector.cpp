@@ -27,6 +27,8 @@ std::string KeyframeSelectorOptions::Validate() const {
   check(CheckRange("min_inliers", min_inliers, 0, 1000000));
   check(CheckRange("max_translation", max_translation, 0.0, 1e6, true));
   check(CheckRange("max_rotation_deg", max_rotation_deg, 0.0, 180.0, true));
+  check(CheckRange("min_translation", min_translation, 0.0, max_translation));
+  check(CheckRange("min_rotation_deg", min_rotation_deg, 0.0, max_rotation_deg));
   return first;
 }
 
@@ -120,6 +122,10 @@ KeyframeReason KeyframeSelector::AddFrame(const SE3& T_prev_cur, const Matrix6d&
   } else if (T_kf_cur_.translation().norm() > options_.max_translation ||
              T_kf_cur_.RotationAngle() * kDegPerRad > options_.max_rotation_deg) {
     reason = KeyframeReason::kLargeMotion;
+  } else if (T_kf_cur_.translation().norm() <= options_.min_translation &&
+             T_kf_cur_.RotationAngle() * kDegPerRad <= options_.min_rotation_deg &&
+             (options_.min_translation > 0.0 || options_.min_rotation_deg > 0.0)) {
+    reason = KeyframeReason::kNone;  // at rest since the keyframe: nothing new to map
   } else if (frames_ >= options_.max_frames) {
     reason = KeyframeReason::kMaxFrames;
   } else if (frames_ >= options_.min_frames &&

@@ -3,7 +3,10 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <iomanip>
+#include <iterator>
 #include <sstream>
 
 #include <yaml-cpp/yaml.h>
@@ -134,11 +137,20 @@ void Flatten(const YAML::Node& node, const std::string& prefix, const std::strin
 }  // namespace
 
 void LoadYamlOptions(const std::string& path, const OptionTable& table) {
+  std::error_code ec;
+  std::ifstream in(path, std::ios::binary);
+  if (!in || std::filesystem::is_directory(path, ec))
+    throw ConfigError(path + ": cannot read the config file");
+  const std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw ConfigError(path + ": cannot read the config file");
+  LoadYamlOptionsFromString(content, path, table);
+}
+
+void LoadYamlOptionsFromString(const std::string& content, const std::string& path,
+                               const OptionTable& table) {
   YAML::Node root;
   try {
-    root = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
-    throw ConfigError(path + ": cannot read the config file");
+    root = YAML::Load(content);
   } catch (const YAML::Exception& e) {
     throw ConfigError(path + ": not valid YAML (" + e.msg + " at line " +
                       std::to_string(e.mark.line + 1) + ")");

@@ -136,6 +136,56 @@ TEST(LineCostTest, JacobiansMatchCentralDifferences) {
   }
 }
 
+// The extent gauge of a line landmark: holds the endpoints along the line only.
+TEST(LineExtentCostTest, HoldsTheEndpointsAlongTheLineOnly) {
+  const Eigen::Vector3d P0(0.2, -0.5, 3.0), Q0(0.4, 0.7, 3.5);
+  const LineExtentCost cost(P0, Q0, 50.0);
+  const Eigen::Vector3d d = (Q0 - P0).normalized();
+  const Eigen::Vector3d across = d.cross(Eigen::Vector3d::UnitX()).normalized();
+  auto eval = [&](const Eigen::Vector3d& P, const Eigen::Vector3d& Q, double* J = nullptr) {
+    double x[6] = {P.x(), P.y(), P.z(), Q.x(), Q.y(), Q.z()};
+    const double* params[1] = {x};
+    double* jac[1] = {J};
+    Eigen::Vector2d r;
+    EXPECT_TRUE(cost.Evaluate(params, r.data(), J ? jac : nullptr));
+    return r;
+  };
+  EXPECT_LT(eval(P0, Q0).norm(), 1e-12);
+  EXPECT_LT(eval(P0 + 0.1 * across, Q0 - 0.2 * across).norm(), 1e-12);  // across: free
+  EXPECT_NEAR(eval(P0 + 0.02 * d, Q0).x(), 1.0, 1e-9);                  // 2 cm along: 1
+  EXPECT_NEAR(eval(P0, Q0 - 0.04 * d).y(), -2.0, 1e-9);
+  // Analytic Jacobian against central differences at a random point.
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, 0.3);
+  const Eigen::Vector3d P = P0 + Eigen::Vector3d(n(rng), n(rng), n(rng));
+  const Eigen::Vector3d Q = Q0 + Eigen::Vector3d(n(rng), n(rng), n(rng));
+  double J[12];
+  eval(P, Q, J);
+  const double h = 1e-6;
+  double worst = 0.0;
+  for (int k = 0; k < 6; ++k) {
+    Eigen::Matrix<double, 6, 1> x;
+    x << P, Q;
+    Eigen::Matrix<double, 6, 1> xp = x, xm = x;
+    xp(k) += h;
+    xm(k) -= h;
+    const Eigen::Vector2d num =
+        (eval(xp.head<3>(), xp.tail<3>()) - eval(xm.head<3>(), xm.tail<3>())) / (2 * h);
+    for (int i = 0; i < 2; ++i) worst = std::max(worst, std::abs(num(i) - J[i * 6 + k]));
+  }
+  EXPECT_LT(worst, 1e-6);
+  // Degenerate reference: no residual, no Jacobian, nothing non-finite.
+  const LineExtentCost degenerate(P0, P0, 50.0);
+  double x[6] = {1, 2, 3, 4, 5, 6};
+  const double* params[1] = {x};
+  double* jac[1] = {J};
+  double r[2];
+  EXPECT_TRUE(degenerate.Evaluate(params, r, jac));
+  EXPECT_EQ(r[0], 0.0);
+  EXPECT_EQ(r[1], 0.0);
+  for (double v : J) EXPECT_EQ(v, 0.0);
+}
+
 // The check itself must be able to fail: a cost whose pose Jacobian has a flipped rotation
 // block is rejected by the same comparison.
 class WrongPointCost final : public ceres::SizedCostFunction<2, 7, 3> {

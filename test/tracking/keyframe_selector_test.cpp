@@ -34,6 +34,14 @@ KeyframeSelectorOptions Passive() {
   o.max_translation = 1e5;
   o.max_rotation_deg = 180.0;
   o.min_frames = o.max_frames = 100000;
+  o.min_translation = o.min_rotation_deg = 0.0;
+  return o;
+}
+
+/// Default options with the at-rest rule off: the entropy tests below chain zero motions.
+KeyframeSelectorOptions EvenAtRest() {
+  KeyframeSelectorOptions o;
+  o.min_translation = o.min_rotation_deg = 0.0;
   return o;
 }
 
@@ -126,7 +134,7 @@ TEST(KeyframeSelectorPropagation, MatchesMonteCarlo) {
 // h(u) = h(1) + 3 log u and the paper's test alpha = h(u) / h(1) < 0.9 first holds at the
 // smallest u with 3 log u > 0.1 |h(1)|: u = 5 for 0.1 mm / 0.1 mrad per frame.
 TEST(KeyframeSelectorEntropy, FiresAsUncertaintyAccumulates) {
-  KeyframeSelectorOptions opt;
+  KeyframeSelectorOptions opt = EvenAtRest();
   opt.min_inliers = 10;
   KeyframeSelector selector(opt);
   const Matrix6d cov = Diag(1e-4, 1e-4);
@@ -160,7 +168,7 @@ TEST(KeyframeSelectorEntropy, FiresAsUncertaintyAccumulates) {
 // A moving camera: rotation uncertainty leaks into translation through the adjoint, so the
 // entropy grows faster than with a still camera and the keyframe comes no later.
 TEST(KeyframeSelectorEntropy, FiresEarlierWhenMoving) {
-  KeyframeSelectorOptions opt;
+  KeyframeSelectorOptions opt = EvenAtRest();
   opt.min_frames = 2;
   opt.min_inliers = 10;
   const Matrix6d cov = Diag(1e-3, 1e-3);
@@ -183,7 +191,7 @@ TEST(KeyframeSelectorEntropy, FiresEarlierWhenMoving) {
 // When h(kf, kf + 1) >= 0 (an extremely uncertain first increment) the paper's ratio grows with
 // the uncertainty; the selector still fires, on the same entropy margin.
 TEST(KeyframeSelectorEntropy, PositiveEntropyStillFires) {
-  KeyframeSelectorOptions opt;
+  KeyframeSelectorOptions opt = EvenAtRest();
   opt.min_inliers = 0;
   KeyframeSelector selector(opt);
   const Matrix6d cov = Diag(1.0, 1.0);
@@ -193,6 +201,35 @@ TEST(KeyframeSelectorEntropy, PositiveEntropyStillFires) {
   EXPECT_EQ(selector.AddFrame(SE3(), cov, 100), KeyframeReason::kNone);
   EXPECT_EQ(selector.AddFrame(SE3(), cov, 100), KeyframeReason::kEntropy);  // min_frames = 3
   EXPECT_GT(selector.last_entropy_ratio(), 1.0);
+}
+
+// A camera at rest (or a frozen stream) chains growing uncertainty but sees nothing new: the
+// entropy and frame-count triggers wait for min_translation or min_rotation_deg of motion; the
+// inlier trigger does not.
+TEST(KeyframeSelectorSafety, AtRestTheEntropyAndFrameCountTriggersWait) {
+  KeyframeSelectorOptions opt;
+  opt.min_inliers = 10;
+  opt.max_frames = 10;
+  KeyframeSelector selector(opt);
+  const Matrix6d cov = Diag(1e-4, 1e-4);
+  selector.AddFrame(SE3(), cov, 100);
+  for (int u = 1; u <= 50; ++u)
+    ASSERT_EQ(selector.AddFrame(SE3(), cov, 100), KeyframeReason::kNone) << "u=" << u;
+  EXPECT_LT(selector.last_entropy_ratio(), 0.9);  // the entropy test alone would have fired
+  // 4 mm per frame: the 3rd step passes 1 cm and the pending keyframe (frame count, checked
+  // before the entropy) comes at once.
+  const SE3 step(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.004, 0.0, 0.0));
+  EXPECT_EQ(selector.AddFrame(step, cov, 100), KeyframeReason::kNone);
+  EXPECT_EQ(selector.AddFrame(step, cov, 100), KeyframeReason::kNone);
+  EXPECT_EQ(selector.AddFrame(step, cov, 100), KeyframeReason::kMaxFrames);
+  // Turning in place counts as motion too.
+  for (int u = 1; u <= 20; ++u)
+    ASSERT_EQ(selector.AddFrame(SE3(), cov, 100), KeyframeReason::kNone);
+  const SE3 turn(ExpSO3(Eigen::Vector3d(0.0, 0.3 * kDeg, 0.0)), Eigen::Vector3d::Zero());
+  EXPECT_EQ(selector.AddFrame(turn, cov, 100), KeyframeReason::kNone);
+  EXPECT_EQ(selector.AddFrame(turn, cov, 100), KeyframeReason::kMaxFrames);  // 0.6 deg
+  // Few inliers still force a keyframe at rest.
+  EXPECT_EQ(selector.AddFrame(SE3(), cov, 5), KeyframeReason::kFewInliers);
 }
 
 TEST(KeyframeSelectorSafety, FewInliers) {

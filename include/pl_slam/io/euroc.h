@@ -17,6 +17,8 @@ namespace pl_slam {
 /// {rows: 4, cols: 4, data: [16]}, optional rate_hz. A leading "%YAML:1.0" line (OpenCV
 /// style) is accepted. Throws InputError "<path>[:line]: <key>: what is wrong".
 RawCameraCalibration ReadEurocCameraYaml(const std::string& path);
+/// The same, from the file's content; `path` only names it in errors (fuzzing, tests).
+RawCameraCalibration ParseEurocCameraYaml(const std::string& content, const std::string& path);
 
 /// Text of a sensor.yaml in the EuRoC schema for `calib` (numbers written exactly);
 /// ReadEurocCameraYaml reads it back to the same values.

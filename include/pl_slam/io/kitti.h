@@ -14,9 +14,14 @@ namespace pl_slam {
 /// baseline = -(P1[3] - P0[3]) / P1[0]. The image size is not in the file and is taken from
 /// the arguments. Throws InputError "<path>[:line]: what is wrong".
 StereoCamera ReadKittiCalibration(const std::string& path, int width, int height);
+/// The same, from the file's content; `path` only names it in errors (fuzzing, tests).
+StereoCamera ParseKittiCalibration(const std::string& content, const std::string& path, int width,
+                                   int height);
 
 /// Reads a KITTI times.txt (one time in seconds per line). Throws InputError with file:line.
 std::vector<double> ReadKittiTimes(const std::string& path);
+/// The same, from the file's content; `path` only names it in errors (fuzzing, tests).
+std::vector<double> ParseKittiTimes(const std::string& content, const std::string& path);
 
 /// A KITTI odometry sequence folder: calib.txt, image_0/ and image_1/ (same file names,
 /// sorted), optional times.txt (else 10 Hz from 0) and optional poses.txt (left camera

@@ -27,15 +27,22 @@ TrajectoryFormat ParseTrajectoryFormat(const std::string& name);
 /// Reads a TUM file: "t tx ty tz qx qy qz qw" per line, '#' comments. Throws InputError with
 /// the file and line number on malformed content.
 Trajectory ReadTumTrajectory(const std::string& path);
+/// The same, from the file's content; `path` only names it in errors (fuzzing, tests).
+Trajectory ParseTumTrajectory(const std::string& content, const std::string& path);
 
 /// Reads a KITTI poses file (12 numbers per line, row-major 3x4). Times are taken from
 /// `times` when it is non-empty (same length required), else the line index is used.
 Trajectory ReadKittiTrajectory(const std::string& path, const std::vector<double>& times = {});
+/// The same, from the file's content; `path` only names it in errors (fuzzing, tests).
+Trajectory ParseKittiTrajectory(const std::string& content, const std::string& path,
+                                const std::vector<double>& times);
 
 /// Reads an EuRoC state_groundtruth_estimate0/data.csv (or any EuRoC pose csv whose first 8
 /// columns are t[ns], p xyz, q wxyz). Poses are of the body frame; compose with T_B_C to get
 /// the camera trajectory.
 Trajectory ReadEurocTrajectory(const std::string& path);
+/// The same, from the file's content; `path` only names it in errors (fuzzing, tests).
+Trajectory ParseEurocTrajectory(const std::string& content, const std::string& path);
 
 /// Reads a trajectory in the given format.
 Trajectory ReadTrajectory(const std::string& path, TrajectoryFormat format);

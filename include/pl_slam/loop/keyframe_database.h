@@ -93,6 +93,8 @@ class KeyframeDatabase {
   bool ScoreAgainst(const KeyframeBow& query, int id, double* score) const;
   /// Number of keyframes.
   std::size_t size() const;
+  /// Ids of the keyframes in the database, increasing.
+  std::vector<int> ids() const;
 
   /// The `max_results` keyframes most similar to `query` by combined score, best first
   /// (ties by increasing id), skipping the ids in `exclude` and scores below

@@ -62,6 +62,7 @@ struct LoopStats {
   int loops_detected = 0;
   int loops_corrected = 0;
   int relocalizations = 0;
+  int database_keyframes = 0;         ///< keyframes in the database (culled ones leave it)
   std::vector<double> query_ms;       ///< BoW + database query per keyframe
   std::vector<double> correction_ms;  ///< pose graph + landmark correction per loop
   std::vector<LoopDetection, Eigen::aligned_allocator<LoopDetection>> loops;  ///< accepted

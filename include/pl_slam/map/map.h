@@ -89,6 +89,9 @@ struct LocalMap {
   std::vector<LandmarkId> line_ids;
   LineFeatures lines;  ///< P_c, Q_c hold WORLD endpoints
   cv::Mat line_descriptors;
+  /// Landmarks (points + lines) the reference keyframe observes that at least 3 keyframes
+  /// see: the well-established part of its view.
+  int reference_landmarks = 0;
 };
 
 /// A consistent copy of the map for display and output (markers, path, map files).

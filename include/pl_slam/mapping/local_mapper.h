@@ -36,7 +36,10 @@ struct MappingOptions {
   int refine_min_inliers = 30;          ///< fewer inliers: keep the tracked pose
   double refine_max_correction = 0.3;   ///< larger refinement (m) of a keyframe pose is refused
   double search_radius = 8.0;           ///< local-map search radius, pixels at octave 0
-  int local_map_keyframes = 10;         ///< covisible keyframes whose landmarks form the local map
+  /// After insertion, merge landmarks mapped twice (the keyframe's landmarks matched with
+  /// other local-map landmarks at the same place), so revisits do not pile up copies.
+  bool fuse_duplicates = true;
+  int local_map_keyframes = 10;  ///< covisible keyframes whose landmarks form the local map
   int cull_after_keyframes = 3;  ///< a landmark still seen by < min_observations keyframes this
                                  ///< many keyframes after its creation is removed
   int min_observations = 2;      ///< see cull_after_keyframes
@@ -58,6 +61,12 @@ struct MappingOptions {
   double track_max_correction = 0.02;
   /// Larger local-map rotation correction (deg) is refused as a mismatch too.
   double track_max_correction_deg = 0.25;
+  /// A keyframe proposed by tracking (entropy ratio, motion or frame count, not few inliers)
+  /// is skipped when the frame's local-map inliers reach this share of the landmarks the
+  /// map's last keyframe observes: the map already covers the view (a revisit), so the
+  /// keyframe would only duplicate it. ORB-SLAM's "tracked < 90% of the reference keyframe"
+  /// rule. Keeps the keyframe count proportional to the explored space. 0 never skips.
+  double skip_covered_keyframes = 0.9;
   BundleAdjustmentOptions ba;  ///< "ba.*"
   MapOptions map;              ///< "map.*"
   /// Empty when valid, else "key=value must be ..." naming the first bad key.

@@ -28,7 +28,10 @@ struct BundleAdjustmentOptions {
   double line_chi2_mono = 5.991;     ///< lines, 2 dof
   double line_chi2_stereo = 9.488;   ///< lines, 4 dof
   double min_depth = 0.05;           ///< observations whose point is closer (m) are outliers
-  int num_threads = 1;               ///< Ceres threads (tracking keeps the other core)
+  /// Weight (per metre) of LineExtentCost, which holds each line landmark's endpoints where
+  /// they are along the line (the observations do not constrain that direction); 0 = off.
+  double line_extent_weight = 5.0;
+  int num_threads = 1;  ///< Ceres threads (tracking keeps the other core)
   /// Schur complement solver for the reduced camera system: "sparse" (SuiteSparse Cholesky)
   /// or "dense" (Eigen; can be faster for the few tens of keyframes of a local window).
   std::string schur = "sparse";

@@ -5,6 +5,7 @@
 #include <Eigen/Core>
 
 #include "pl_slam/camera/stereo_camera.h"
+#include "pl_slam/geometry/se3.h"
 
 namespace pl_slam {
 
@@ -14,8 +15,9 @@ namespace pl_slam {
 /// Parameter blocks: T_c_w (7, lifted left-perturbation Jacobian, see se3_manifold.h) and the
 /// landmark [P_w; Q_w] (6: one block, so that landmarks stay independent for Schur elimination).
 /// Endpoints below min_depth give zero residuals and Jacobians. The endpoints may slide along the
-/// 3D line without changing the residual; Levenberg-Marquardt's damping keeps that direction fixed
-/// in practice.
+/// 3D line without changing the residual: bundle adjustment adds a LineExtentCost per landmark
+/// and local mapping re-anchors the extent afterwards (without them, 70-80% of the room's line
+/// landmarks collapsed to P = Q within a few keyframes).
 template <int kResiduals>
 class LineCost final : public ceres::SizedCostFunction<kResiduals, 7, 6> {
   static_assert(kResiduals == 2 || kResiduals == 4, "2 (left image) or 4 (stereo) residuals");
@@ -42,6 +44,36 @@ using StereoLineCost = LineCost<4>;
 
 extern template class LineCost<2>;
 extern template class LineCost<4>;
+
+/// Gauge of a line landmark's extent: residuals w * d . (P - P0) and w * d . (Q - Q0), where
+/// d is the unit direction of (Q0 - P0). Only the endpoints' positions ALONG the line are held
+/// (to where the observations put them); across the line they stay free, so the observations
+/// alone decide where the line is. `weight` is per metre (w = 5: a 20 cm slide costs as much
+/// as a one-sigma reprojection error; weak, because the extent is re-anchored after every BA
+/// anyway, see AnchorSegmentToObservation; 50 made the low-texture corridor 3x less accurate).
+/// Degenerate P0 = Q0 gives zero residuals and Jacobians.
+class LineExtentCost final : public ceres::SizedCostFunction<2, 6> {
+ public:
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  LineExtentCost(const Eigen::Vector3d& P0, const Eigen::Vector3d& Q0, double weight);
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  Eigen::Vector3d P0_, Q0_, d_;  // d_ = weight * unit direction (zero when degenerate)
+};
+
+/// Re-anchors a line landmark's extent to one observation of it: replaces P_w and Q_w by the
+/// points of their infinite 3D line closest to the viewing rays of the observed segment's
+/// endpoints `s` and `e` (left-image pixels of a camera at T_w_c). Bundle adjustment fixes
+/// where the line is, not where the segment ends: its endpoint residuals all pull each endpoint
+/// to the same best point of the line, and repeated local BAs shrink segments toward it even
+/// with LineExtentCost. Returns false (and changes nothing) when the line is degenerate, a ray
+/// is within 2 degrees of parallel to it, or the result is shorter than 1 cm or behind the
+/// camera.
+bool AnchorSegmentToObservation(const StereoCamera& camera, const SE3& T_w_c,
+                                const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                                Eigen::Vector3d* P_w, Eigen::Vector3d* Q_w);
 
 /// The normalised infinite line through two pixels, scaled so l(0)^2 + l(1)^2 = 1; zero when
 /// the pixels coincide.

@@ -47,6 +47,9 @@ struct FrameResult {
   Matrix6d covariance = Matrix6d::Identity();  ///< of the frame-to-frame increment [rho; phi]
   bool pose_valid = false;                     ///< T_w_c is an estimate for this frame
   bool is_keyframe = false;
+  /// Tracking proposed a keyframe but the local map already covered the view
+  /// (mapping.skip_covered_keyframes): no keyframe was made.
+  bool keyframe_skipped = false;
   int points_detected = 0;
   int lines_detected = 0;
   int point_inliers = 0;

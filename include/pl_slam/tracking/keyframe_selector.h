@@ -34,6 +34,12 @@ struct KeyframeSelectorOptions {
   double max_translation = 2.0;
   /// Keyframe when the rotation since the last keyframe exceeds this (degrees).
   double max_rotation_deg = 15.0;
+  /// The entropy and frame-count triggers wait until the camera has moved more than this
+  /// (metres) or turned more than min_rotation_deg since the keyframe: a camera at rest or a
+  /// frozen image stream adds no keyframes (its uncertainty grows by chaining, its view does
+  /// not change). 0 and 0 switch this off.
+  double min_translation = 0.01;
+  double min_rotation_deg = 0.5;  ///< see min_translation
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;

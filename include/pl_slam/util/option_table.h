@@ -49,5 +49,8 @@ class OptionTable {
 /// ("points: {max_points: 800}" sets "points.max_points"). Throws ConfigError naming the
 /// file and the key for unknown keys, malformed values or an unreadable file.
 void LoadYamlOptions(const std::string& path, const OptionTable& table);
+/// The same, from the file's content; `path` only names it in errors (fuzzing, tests).
+void LoadYamlOptionsFromString(const std::string& content, const std::string& path,
+                               const OptionTable& table);
 
 }  // namespace pl_slam
