@@ -5,16 +5,18 @@
 # 5 s (deadlock or stall); resident memory, map size and the mapping queue are logged every
 # 500 frames and judged by scripts/soak_report.py (plateau, bounded queue, full coverage).
 #
-#   bash scripts/soak.sh [loops:=21] [extra pl_slam_offline options...]
+#   bash scripts/soak.sh [loops:=21] [out:=DIR] [extra pl_slam_offline options...]
 # The sequence (4.2 GB of PNGs) is rendered once into output/soak/ (git-ignored); about
 # 15 min to render and 10-15 min to run on 2 cores. Needs a built workspace (scripts/setup.sh).
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 loops=21
+out_arg=""
 extra=()
 for a in "$@"; do
   case "$a" in
     loops:=*) loops="${a#loops:=}" ;;
+    out:=*) out_arg="${a#out:=}" ;;
     *) extra+=("$a") ;;
   esac
 done
@@ -22,7 +24,7 @@ source "${HERE}/env.sh"
 BIN="${PL_SLAM_WS}/devel/lib/pl_slam"
 [ -x "${BIN}/pl_slam_offline" ] || { echo "soak.sh: ${BIN}/pl_slam_offline missing; run scripts/setup.sh first" >&2; exit 1; }
 data="${PL_SLAM_ROOT}/output/soak/room_x${loops}"
-out="${PL_SLAM_ROOT}/output/soak/run_x${loops}"
+out="${out_arg:-${PL_SLAM_ROOT}/output/soak/run_x${loops}}"
 if [ ! -f "${data}/.complete" ]; then
   echo "[soak] rendering room x${loops} into ${data}"
   rm -rf "${data}"

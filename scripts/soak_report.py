@@ -30,12 +30,14 @@ def main():
         sys.exit("soak_report.py: %s: cannot read (%s)" % (path, e))
     if len(rows) < 4:
         sys.exit("soak_report.py: %s: %d rows, need at least 4" % (path, len(rows)))
-    print("| frame | resident MB | keyframes | point landmarks | line landmarks | culled keyframes | mapping queue |")
-    print("|---|---|---|---|---|---|---|")
+    heap = all("heap_mb" in r for r in rows)
+    print("| frame | resident MB |%s keyframes | point landmarks | line landmarks | culled keyframes | mapping queue |"
+          % (" heap in use MB |" if heap else ""))
+    print("|---|---|%s---|---|---|---|---|" % ("---|" if heap else ""))
     for r in rows:
-        print("| %d | %.1f | %d | %d | %d | %d | %d |" % (
-            r["frame"], r["rss_mb"], r["keyframes"], r["points"], r["lines"],
-            r["culled_keyframes"], r["mapping_queue"]))
+        print("| %d | %.1f |%s %d | %d | %d | %d | %d |" % (
+            r["frame"], r["rss_mb"], (" %.1f |" % r["heap_mb"]) if heap else "", r["keyframes"],
+            r["points"], r["lines"], r["culled_keyframes"], r["mapping_queue"]))
     half = rows[len(rows) // 2 - 1]
     last = rows[-1]
     growth = (last["rss_mb"] - half["rss_mb"]) / half["rss_mb"]
@@ -49,6 +51,9 @@ def main():
     print("second half (frames %d -> %d): resident memory %+.1f%% (%.1f -> %.1f MB), keyframes %+.1f%% (%d -> %d)"
           % (half["frame"], last["frame"], 100 * growth, half["rss_mb"], last["rss_mb"],
              100 * kf_growth, half["keyframes"], last["keyframes"]))
+    if heap:
+        print("heap in use over the second half: %+.1f MB (%.1f -> %.1f); the rest of the resident growth is kept by the allocator"
+              % (last["heap_mb"] - half["heap_mb"], half["heap_mb"], last["heap_mb"]))
     print("mapping queue max %d (bound %d); frames %d, with pose %d" % (max_queue, a.queue_size, frames, posed))
     failures = []
     if growth > a.max_growth:

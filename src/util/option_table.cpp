@@ -121,7 +121,14 @@ void Flatten(const YAML::Node& node, const std::string& prefix, const std::strin
              const OptionTable& table) {
   if (node.IsMap()) {
     for (const auto& kv : node) {
-      const std::string k = kv.first.as<std::string>();
+      // A complex key ("? {a: b}: c") or a null one cannot name an option (found by fuzzing:
+      // as<std::string>() threw yaml-cpp's own exception through the parser).
+      if (!kv.first.IsScalar()) {
+        throw ConfigError(path + ":" + std::to_string(kv.first.Mark().line + 1) + ": a key" +
+                          (prefix.empty() ? std::string() : " under '" + prefix + "'") +
+                          " is not a plain name");
+      }
+      const std::string k = kv.first.Scalar();
       Flatten(kv.second, prefix.empty() ? k : prefix + "." + k, path, table);
     }
     return;
@@ -157,7 +164,12 @@ void LoadYamlOptionsFromString(const std::string& content, const std::string& pa
   }
   if (root.IsNull()) return;  // an empty file sets nothing
   if (!root.IsMap()) throw ConfigError(path + ": the config must be a map of keys to values");
-  Flatten(root, "", path, table);
+  try {
+    Flatten(root, "", path, table);
+  } catch (const YAML::Exception& e) {  // anything yaml-cpp still throws: one line, not a crash
+    throw ConfigError(path + ": not a valid config (" + e.msg + " at line " +
+                      std::to_string(e.mark.line + 1) + ")");
+  }
 }
 
 }  // namespace pl_slam

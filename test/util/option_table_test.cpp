@@ -84,7 +84,29 @@ TEST(OptionTable, LoadsNestedYamlAndReportsFileAndKey) {
   }
   EXPECT_THROW(LoadYamlOptions(broken, t), ConfigError);
   EXPECT_THROW(LoadYamlOptions((dir / "missing.yaml").string(), t), ConfigError);
+  EXPECT_THROW(LoadYamlOptions(dir.string(), t), ConfigError);  // a folder
+  std::ofstream(dir / "empty.yaml") << "";
+  EXPECT_NO_THROW(LoadYamlOptions((dir / "empty.yaml").string(), t));  // sets nothing
   std::filesystem::remove_all(dir);
+}
+
+// Found by fuzzing (fuzz/corpus/config/crash-complex-key.yaml): a complex or null YAML key
+// made yaml-cpp throw its own exception through the parser instead of a ConfigError.
+TEST(OptionTable, ComplexAndNullKeysAreRefusedWithTheLine) {
+  Opts o;
+  const OptionTable t = Table(&o);
+  for (const char* text :
+       {"group:\n  ? {a: b}\n  : 1\n", "? [n]\n: 2\n", "group:\n  ? \n  : 1\n"}) {
+    try {
+      LoadYamlOptionsFromString(text, "cfg.yaml", t);
+      FAIL() << text;
+    } catch (const ConfigError& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("cfg.yaml:"), std::string::npos) << m;
+      EXPECT_NE(m.find("not a plain name"), std::string::npos) << m;
+    }
+  }
+  EXPECT_EQ(o.n, 3);
 }
 
 }  // namespace
