@@ -9,15 +9,6 @@
 
 namespace {
 
-uint64_t Fnv1a64(const char* data, size_t n) {  // the map format's checksum
-  uint64_t h = 14695981039346656037ull;
-  for (size_t i = 0; i < n; ++i) {
-    h ^= static_cast<unsigned char>(data[i]);
-    h *= 1099511628211ull;
-  }
-  return h;
-}
-
 void Load(const std::string& bytes) {
   pl_slam::Map map;
   pl_slam::fuzz::ExpectAcceptOrRefuse([&] {
@@ -37,7 +28,7 @@ int MapLoader(const uint8_t* data, size_t size) {
   std::string bytes = pl_slam::fuzz::AsString(data, size);
   Load(bytes);
   if (bytes.size() >= 8) {
-    const uint64_t sum = Fnv1a64(bytes.data(), bytes.size() - 8);
+    const uint64_t sum = MapFileChecksum(bytes.data(), bytes.size() - 8);
     for (int i = 0; i < 8; ++i)  // little-endian, as the format stores every number
       bytes[bytes.size() - 8 + i] = static_cast<char>((sum >> (8 * i)) & 0xff);
     Load(bytes);

@@ -349,10 +349,13 @@ LocalMap Map::GetLocalMap(KeyframeId reference, int max_neighbours) const {
   std::vector<cv::Mat> point_rows, line_rows;
   for (KeyframeId kf_id : kfs) {
     const auto kf = KeyframeLocked(kf_id);
+    // The reference comes first, so every landmark it observes is listed on this pass.
+    const bool is_reference = kf_id == reference;
     for (LandmarkId lm_id : kf->point_landmarks) {
       if (lm_id == kNoId || !seen_points.insert(lm_id).second) continue;
       const auto lm = PointLocked(lm_id);
       if (!lm) continue;
+      if (is_reference && lm->observations.size() >= 3) ++local.reference_landmarks;
       PointFeature f;
       f.p_c = lm->p_w;
       f.has_depth = true;
@@ -365,6 +368,7 @@ LocalMap Map::GetLocalMap(KeyframeId reference, int max_neighbours) const {
       if (lm_id == kNoId || !seen_lines.insert(lm_id).second) continue;
       const auto lm = LineLocked(lm_id);
       if (!lm) continue;
+      if (is_reference && lm->observations.size() >= 3) ++local.reference_landmarks;
       LineFeature f;
       f.P_c = lm->P_w;
       f.Q_c = lm->Q_w;
@@ -373,16 +377,6 @@ LocalMap Map::GetLocalMap(KeyframeId reference, int max_neighbours) const {
       local.lines.push_back(f);
       local.line_ids.push_back(lm_id);
       line_rows.push_back(lm->descriptor);
-    }
-    if (kf_id == reference) {
-      for (LandmarkId lm_id : kf->point_landmarks) {
-        const auto lm = lm_id == kNoId ? nullptr : PointLocked(lm_id);
-        if (lm && lm->observations.size() >= 3) ++local.reference_landmarks;
-      }
-      for (LandmarkId lm_id : kf->line_landmarks) {
-        const auto lm = lm_id == kNoId ? nullptr : LineLocked(lm_id);
-        if (lm && lm->observations.size() >= 3) ++local.reference_landmarks;
-      }
     }
   }
   if (!point_rows.empty()) cv::vconcat(point_rows, local.point_descriptors);

@@ -20,6 +20,17 @@
 #include "pl_slam/util/error.h"
 
 namespace pl_slam {
+
+// 64-bit FNV-1a (declared in map_io.h).
+uint64_t MapFileChecksum(const char* data, size_t n) {
+  uint64_t h = 14695981039346656037ull;
+  for (size_t i = 0; i < n; ++i) {
+    h ^= static_cast<uint8_t>(data[i]);
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
 namespace {
 
 constexpr char kMagic[8] = {'P', 'L', 'S', 'L', 'A', 'M', 'A', 'P'};
@@ -47,16 +58,6 @@ struct FormatError {
 [[noreturn]] void Fail(const std::string& problem) { throw FormatError{problem}; }
 
 std::string Str(int64_t v) { return std::to_string(v); }
-
-/// 64-bit FNV-1a.
-uint64_t Fnv1a64(const char* data, size_t n) {
-  uint64_t h = 14695981039346656037ull;
-  for (size_t i = 0; i < n; ++i) {
-    h ^= static_cast<uint8_t>(data[i]);
-    h *= 1099511628211ull;
-  }
-  return h;
-}
 
 uint64_t LoadLe(const char* p, int bytes) {
   uint64_t v = 0;
@@ -235,7 +236,7 @@ std::string Serialize(const MapContents& c) {
   std::string& out = w.bytes();
   const uint64_t payload = out.size() - kHeaderBytes;
   for (int i = 0; i < 8; ++i) out[16 + i] = static_cast<char>((payload >> (8 * i)) & 0xffu);
-  w.U64(Fnv1a64(out.data(), out.size()));
+  w.U64(MapFileChecksum(out.data(), out.size()));
   return std::move(out);
 }
 
@@ -654,7 +655,7 @@ MapContents ParseFile(const std::string& bytes) {
          " unexpected bytes after the checksum");
   const size_t body_end = kHeaderBytes + static_cast<size_t>(payload);
   const uint64_t stored = LoadLe(bytes.data() + body_end, 8);
-  if (stored != Fnv1a64(bytes.data(), body_end))
+  if (stored != MapFileChecksum(bytes.data(), body_end))
     Fail("is corrupted: checksum mismatch (the file was damaged)");
   MapContents c = ParsePayload(bytes.data() + kHeaderBytes, bytes.data() + body_end);
   ValidateContents(c);

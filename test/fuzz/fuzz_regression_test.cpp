@@ -6,14 +6,13 @@
 #include <algorithm>
 #include <cstdint>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
 
 #include "fuzz_util.h"
+#include "pl_slam/io/text_util.h"
 #include "pl_slam/map/map_io.h"
 
 namespace pl_slam {
@@ -31,10 +30,7 @@ std::vector<fs::path> Inputs(const std::string& target) {
   return files;
 }
 
-std::string Read(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-}
+std::string Read(const fs::path& p) { return text::ReadFile(p.string()); }
 
 using Target = int (*)(const uint8_t*, size_t);
 

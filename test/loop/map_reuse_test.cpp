@@ -8,17 +8,13 @@
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
 #include "pl_slam/util/error.h"
+#include "test_util/system_options.h"
 #include "test_util/temp_dir.h"
 
 namespace pl_slam {
 namespace {
 
-SystemOptions Options() {
-  SystemOptions o;
-  o.mapping.threaded = false;
-  o.loop.vocabulary = std::string(PL_SLAM_SOURCE_DIR) + "/vocabulary";
-  return o;
-}
+SystemOptions Options() { return testing_util::SequentialWithVocabulary(); }
 
 TEST(MapReuseTest, SavedMapRelocalisesAndTracksInLocalisationMode) {
   testing_util::TempDir dir;

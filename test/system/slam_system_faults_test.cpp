@@ -9,16 +9,12 @@
 
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
+#include "test_util/system_options.h"
 
 namespace pl_slam {
 namespace {
 
-SystemOptions Options() {
-  SystemOptions o;
-  o.mapping.threaded = false;  // deterministic
-  o.loop.vocabulary = std::string(PL_SLAM_SOURCE_DIR) + "/vocabulary";
-  return o;
-}
+SystemOptions Options() { return testing_util::SequentialWithVocabulary(); }
 
 /// Feeds the room sequence as listed by `schedule` (sequence indices, repeats allowed), with
 /// stamps 50 ms apart in feeding order, after `edit` changed each frame's images.

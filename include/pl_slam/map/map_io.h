@@ -15,6 +15,8 @@
 // remain, so a corrupted count fails cleanly instead of asking for a huge allocation.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 
 #include "pl_slam/map/map.h"
@@ -44,5 +46,9 @@ void LoadMapFromBytes(const std::string& bytes, const std::string& name, Map* ma
 
 /// The bytes SaveMap() writes for `map` (throws InputError when the map is inconsistent).
 std::string SerializeMap(const Map& map);
+
+/// The file's checksum (FNV-1a, 64-bit) of `n` bytes: what the trailer holds for the header
+/// and payload before it.
+uint64_t MapFileChecksum(const char* data, size_t n);
 
 }  // namespace pl_slam
