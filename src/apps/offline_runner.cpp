@@ -54,15 +54,6 @@ constexpr char kUsage[] =
     "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
     "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
 
-struct TimingRow {
-  int index;
-  double stamp;
-  std::string state;
-  int points, lines, point_inliers, line_inliers;
-  std::vector<std::pair<std::string, double>> stages;
-  double total_ms;
-};
-
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
@@ -107,29 +98,77 @@ double HeapInUseMegabytes() {
   return in_use / 1048576.0;
 }
 
-std::string TimingCsv(const std::vector<TimingRow>& rows) {
-  // Columns: the union of stage names, in first-seen order.
-  std::vector<std::string> stages;
-  for (const auto& r : rows)
-    for (const auto& s : r.stages)
-      if (std::find(stages.begin(), stages.end(), s.first) == stages.end())
-        stages.push_back(s.first);
-  std::ostringstream os;
-  os << "frame,stamp,state,points,lines,point_inliers,line_inliers";
-  for (const auto& s : stages) os << "," << s << "_ms";
-  os << ",total_ms\n" << std::fixed;
-  for (const auto& r : rows) {
-    os << r.index << "," << std::setprecision(9) << r.stamp << "," << r.state << "," << r.points
-       << "," << r.lines << "," << r.point_inliers << "," << r.line_inliers << std::setprecision(3);
-    for (const auto& s : stages) {
-      auto it = std::find_if(r.stages.begin(), r.stages.end(),
-                             [&](const auto& p) { return p.first == s; });
-      os << "," << (it == r.stages.end() ? 0.0 : it->second);
-    }
-    os << "," << r.total_ms << "\n";
+/// The per-frame timing record, kept on disk rather than in memory so that a long (soak) run
+/// holds nothing per frame: each frame is appended to DIR/timing.csv.rows as it is processed;
+/// Finish() turns that file into DIR/timing.csv (one column per stage, in first-seen order) and
+/// DIR/frames.txt, both written atomically, and returns the per-frame total times.
+class TimingLog {
+ public:
+  explicit TimingLog(const std::string& out_dir)
+      : out_dir_(out_dir), rows_path_(out_dir + "/timing.csv.rows") {
+    rows_.open(rows_path_, std::ios::trunc);
+    if (!rows_) throw pl_slam::InputError(rows_path_ + ": cannot write");
+    rows_ << std::fixed;
   }
-  return os.str();
-}
+  void Add(int index, double stamp, const pl_slam::FrameResult& r) {
+    // index,stamp,state,points,lines,point_inliers,line_inliers,total_ms then stage=ms pairs;
+    // stage names are identifiers (no commas or '=').
+    rows_ << index << "," << std::setprecision(9) << stamp << ","
+          << pl_slam::TrackingStateName(r.state) << "," << r.points_detected << ","
+          << r.lines_detected << "," << r.point_inliers << "," << r.line_inliers << ","
+          << std::setprecision(3) << r.total_ms;
+    for (const auto& [name, ms] : r.stage_ms) {
+      if (std::find(stages_.begin(), stages_.end(), name) == stages_.end()) stages_.push_back(name);
+      rows_ << "," << name << "=" << ms;
+    }
+    rows_ << "\n";
+    ++count_;
+  }
+  int count() const { return count_; }
+
+  std::vector<double> Finish() {
+    rows_.close();
+    if (!rows_) throw pl_slam::InputError(rows_path_ + ": write failed (disk full?)");
+    std::ifstream in(rows_path_);
+    std::ostringstream csv, frames;
+    csv << "frame,stamp,state,points,lines,point_inliers,line_inliers";
+    for (const auto& s : stages_) csv << "," << s << "_ms";
+    csv << ",total_ms\n";
+    std::vector<double> totals;
+    std::string line;
+    std::vector<std::string> values(stages_.size());
+    while (std::getline(in, line)) {
+      std::vector<std::string> fields;
+      std::stringstream ss(line);
+      std::string f;
+      while (std::getline(ss, f, ',')) fields.push_back(f);
+      if (fields.size() < 8) throw pl_slam::InputError(rows_path_ + ": malformed row: " + line);
+      std::fill(values.begin(), values.end(), "0.000");
+      for (size_t i = 8; i < fields.size(); ++i) {
+        const size_t eq = fields[i].find('=');
+        const auto it = std::find(stages_.begin(), stages_.end(), fields[i].substr(0, eq));
+        if (eq != std::string::npos && it != stages_.end())
+          values[it - stages_.begin()] = fields[i].substr(eq + 1);
+      }
+      for (size_t i = 0; i < 7; ++i) csv << (i ? "," : "") << fields[i];
+      for (const auto& v : values) csv << "," << v;
+      csv << "," << fields[7] << "\n";
+      frames << fields[1] << "\n";
+      totals.push_back(std::atof(fields[7].c_str()));
+    }
+    pl_slam::WriteFileAtomic(out_dir_ + "/timing.csv", csv.str());
+    // Every frame read (tracked or not): what coverage is measured against.
+    pl_slam::WriteFileAtomic(out_dir_ + "/frames.txt", frames.str());
+    std::filesystem::remove(rows_path_);
+    return totals;
+  }
+
+ private:
+  std::string out_dir_, rows_path_;
+  std::ofstream rows_;
+  std::vector<std::string> stages_;
+  int count_ = 0;
+};
 
 /// Aborts the process when a frame takes longer than the limit: a soak run must fail on a
 /// deadlock or a stall instead of hanging. Start()/Stop() around each frame; 0 s = off.
@@ -260,8 +299,7 @@ int Run(int argc, char** argv) {
   Watchdog watchdog(watchdog_s);
 
   std::filesystem::create_directories(out_dir);
-  std::vector<TimingRow> rows;
-  std::vector<double> totals;
+  TimingLog timing(out_dir);
   int lost = 0;
   pl_slam::StereoFrame frame;
   const bool realtime = cl.Has("realtime");
@@ -276,7 +314,7 @@ int Run(int argc, char** argv) {
   }
   const auto wall_start = std::chrono::steady_clock::now();
   double first_stamp = -1.0;
-  while ((max_frames < 0 || static_cast<int>(rows.size()) < max_frames) && source->Next(&frame)) {
+  while ((max_frames < 0 || timing.count() < max_frames) && source->Next(&frame)) {
     if (realtime) {
       if (first_stamp < 0.0) first_stamp = frame.stamp_s();
       std::this_thread::sleep_until(
@@ -286,13 +324,10 @@ int Run(int argc, char** argv) {
     watchdog.Start(frame.index);
     const pl_slam::FrameResult r = system.Process(frame);
     watchdog.Stop();
-    rows.push_back({frame.index, frame.stamp_s(), pl_slam::TrackingStateName(r.state),
-                    r.points_detected, r.lines_detected, r.point_inliers, r.line_inliers,
-                    r.stage_ms, r.total_ms});
-    totals.push_back(r.total_ms);
-    if (memory_every > 0 && static_cast<int>(rows.size()) % memory_every == 0) {
+    timing.Add(frame.index, frame.stamp_s(), r);
+    if (memory_every > 0 && timing.count() % memory_every == 0) {
       const pl_slam::MapCounts mc = system.map().counts();
-      memory_csv << rows.size() << "," << ResidentMegabytes() << "," << mc.keyframes << ","
+      memory_csv << timing.count() << "," << ResidentMegabytes() << "," << mc.keyframes << ","
                  << mc.points << "," << mc.lines << "," << mc.culled_keyframes << ","
                  << system.mapping_stats().queue_length << "," << HeapInUseMegabytes() << std::endl;
     }
@@ -308,17 +343,12 @@ int Run(int argc, char** argv) {
   const pl_slam::Trajectory traj = system.trajectory();
   const std::string traj_path = out_dir + "/trajectory.tum";
   pl_slam::WriteTrajectory(traj_path, traj, pl_slam::TrajectoryFormat::kTum);
-  pl_slam::WriteFileAtomic(out_dir + "/timing.csv", TimingCsv(rows));
-  // Every frame read (tracked or not): what coverage is measured against.
-  std::ostringstream frame_times;
-  frame_times << std::fixed << std::setprecision(9);
-  for (const auto& r : rows) frame_times << r.stamp << "\n";
-  pl_slam::WriteFileAtomic(out_dir + "/frames.txt", frame_times.str());
+  const std::vector<double> totals = timing.Finish();
   if (!source->ground_truth().empty()) {
     pl_slam::WriteTrajectory(out_dir + "/groundtruth.tum", source->ground_truth(),
                              pl_slam::TrajectoryFormat::kTum);
   }
-  std::cout << std::fixed << std::setprecision(2) << "frames " << rows.size() << ", with pose "
+  std::cout << std::fixed << std::setprecision(2) << "frames " << totals.size() << ", with pose "
             << traj.size() << ", without pose " << lost << "; tracking time median "
             << Percentile(totals, 0.5) << " ms, p95 " << Percentile(totals, 0.95) << " ms\n"
             << "wrote " << traj_path << ", " << out_dir << "/timing.csv, " << out_dir

@@ -2,11 +2,11 @@
 
 #include <chrono>
 #include <cmath>
-#include <future>
 #include <sstream>
 
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
+#include "pl_slam/util/worker_thread.h"
 
 namespace pl_slam {
 
@@ -81,6 +81,7 @@ struct StereoTracker::Impl {
   SE3 velocity_cur_prev;  // last T_cur_prev: the constant-velocity prior
   bool velocity_valid = false;
   TrackerState state = TrackerState::kNotInitialized;
+  WorkerThread right_worker;  // detects the right image's features (options.parallel)
 
   Impl(const StereoCamera& cam, const TrackerOptions& opt)
       : camera(cam),
@@ -142,14 +143,19 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame) {
   TrackerResult result;
   result.T_w_c = s.T_w_c;
 
-  // 1. Features in both images; the right image in a second thread.
+  // 1. Features in both images; the right image on the tracker's helper thread (one thread
+  //    for the tracker's life, see util/worker_thread.h).
   auto t0 = Clock::now();
   ImageFeatures left, right;
   if (s.options.parallel) {
-    std::future<void> right_job =
-        std::async(std::launch::async, [&] { s.Detect(frame.right, &right); });
-    s.Detect(frame.left, &left);
-    right_job.get();
+    s.right_worker.Start([&] { s.Detect(frame.right, &right); });
+    try {
+      s.Detect(frame.left, &left);
+    } catch (...) {
+      s.right_worker.Wait();  // `right` must outlive the job
+      throw;
+    }
+    s.right_worker.Wait();
   } else {
     s.Detect(frame.left, &left);
     s.Detect(frame.right, &right);
