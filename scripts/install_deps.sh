@@ -20,11 +20,13 @@ PKGS=(
   libtbb-dev libyaml-cpp-dev libbenchmark-dev
   rviz librviz-dev xvfb xauth imagemagick
 )
-# Optional groups: "fuzz" adds clang with its libFuzzer runtime (scripts/run_fuzzers.sh).
+# Optional groups: "fuzz" adds clang with its libFuzzer runtime (scripts/run_fuzzers.sh);
+# "profile" adds heaptrack (scripts/heap_growth.sh).
 for group in "$@"; do
   case "${group}" in
     fuzz) PKGS+=(clang libclang-rt-14-dev) ;;
-    *) echo "[pl_slam] install_deps.sh: unknown group '${group}' (known: fuzz)" >&2; exit 2 ;;
+    profile) PKGS+=(heaptrack) ;;
+    *) echo "[pl_slam] install_deps.sh: unknown group '${group}' (known: fuzz, profile)" >&2; exit 2 ;;
   esac
 done
 

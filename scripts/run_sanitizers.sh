@@ -5,15 +5,19 @@
 # sequence through the threaded pipeline (local mapping + loop closing threads), and fails on
 # any report. Suppressions: scripts/tsan.supp (thread only), each entry with its reason.
 #
-#   bash scripts/run_sanitizers.sh address|thread [frames:=N]
+#   bash scripts/run_sanitizers.sh address|thread [frames:=N] [tests:=test_a,test_b]
+# tests:= runs only those core test binaries (a quick re-check after a change; the pipeline
+# run always follows).
 # Needs the packages of scripts/install_deps.sh. Takes 20-40 min on 2 cores (the build).
 set -euo pipefail
 HERE="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 kind="${1:-}"; shift || true
 frames=240
+only=""
 for a in "$@"; do
   case "$a" in
     frames:=*) frames="${a#frames:=}" ;;
+    tests:=*) only="${a#tests:=}" ;;
     *) echo "run_sanitizers.sh: unknown argument '$a'" >&2; exit 2 ;;
   esac
 done
@@ -30,6 +34,14 @@ mkdir -p "${PL_SLAM_WS}/src" "${ROS_LOG_DIR}"
 core_tests=(test_geometry test_camera test_io test_eval test_sim test_util test_features
             test_matching test_tracking test_map test_optimization test_mapping test_loop
             test_system)
+if [ -n "${only}" ]; then
+  IFS=, read -r -a picked <<< "${only}"
+  for t in "${picked[@]}"; do
+    [[ " ${core_tests[*]} " == *" ${t} "* ]] ||
+      { echo "run_sanitizers.sh: tests:= ${t} is not a core test (${core_tests[*]})" >&2; exit 2; }
+  done
+  core_tests=("${picked[@]}")
+fi
 cd "${PL_SLAM_WS}"
 catkin_make -DPYTHON_EXECUTABLE=/usr/bin/python3 -DCMAKE_BUILD_TYPE=RelWithDebInfo \
   -DCATKIN_ENABLE_TESTING=ON -DPL_SLAM_SANITIZE="${kind}" -j"${PL_SLAM_JOBS:-$(nproc)}" \
