@@ -8,6 +8,7 @@
 
 #include "pl_slam/map/map_io.h"
 #include "pl_slam/mapping/local_map_matching.h"
+#include "pl_slam/system/frame_records.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 
@@ -38,15 +39,6 @@ std::string SystemOptions::Validate() const {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-/// A tracked frame, kept relative to its reference keyframe.
-struct FrameRecord {
-  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
-  double stamp_s = 0.0;
-  SE3 T_w_c;                     ///< as tracked
-  KeyframeId reference = kNoId;  ///< keyframe it was tracked after
-  SE3 T_ref_c;                   ///< pose relative to the reference keyframe as then estimated
-};
 
 MappingFrontEnd FrontEndOf(const TrackerOptions& t) {
   MappingFrontEnd f;
@@ -79,7 +71,7 @@ struct SlamSystem::Impl {
   mutable std::mutex features_mutex;  // guards last_features (read by the ROS layer)
   StereoFeatures last_features;
   mutable std::mutex trajectory_mutex;  // guards records (read from other threads)
-  std::vector<FrameRecord, Eigen::aligned_allocator<FrameRecord>> records;
+  FrameRecords records;
 
   void RefreshLocalMap() {
     const KeyframeId last = map->LastKeyframe();
@@ -196,30 +188,14 @@ void SlamSystem::Reset() {
 
 Trajectory SlamSystem::trajectory() const {
   const Impl& s = *impl_;
-  std::vector<FrameRecord, Eigen::aligned_allocator<FrameRecord>> records;
+  FrameRecords records;
   {
     std::lock_guard<std::mutex> lock(s.trajectory_mutex);
     records = s.records;
   }
-  Trajectory out;
-  out.reserve(records.size());
-  KeyframeId cached_id = kNoId;
-  SE3 cached_pose;
-  bool cached_ok = false;
-  for (const FrameRecord& r : records) {
-    StampedPose sp;
-    sp.t = r.stamp_s;
-    sp.T_w_c = r.T_w_c;
-    if (r.reference != kNoId) {
-      if (r.reference != cached_id) {
-        cached_id = r.reference;
-        cached_ok = s.map->KeyframePose(r.reference, &cached_pose);
-      }
-      if (cached_ok) sp.T_w_c = cached_pose * r.T_ref_c;
-    }
-    out.push_back(sp);
-  }
-  return out;
+  return ResolveTrajectory(
+      records, [&](KeyframeId id, SE3* T_w_kf) { return s.map->KeyframePose(id, T_w_kf); },
+      s.options.mapping.interpolate_trajectory);
 }
 
 FrameResult SlamSystem::Process(const StereoFrame& frame) {

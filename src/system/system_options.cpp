@@ -169,6 +169,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "information of a line residual relative to a point's in mapping");
   t.Add("mapping.fuse_duplicates", &mp.fuse_duplicates,
         "merge landmarks mapped twice (keyframe vs local map) after insertion");
+  t.Add("mapping.interpolate_trajectory", &mp.interpolate_trajectory,
+        "trajectory frames blend the corrections of the keyframes before and after them");
   t.Add("mapping.track_local_map", &mp.track_local_map,
         "tracking also matches the local map (bounded drift)");
   t.Add("mapping.track_min_inliers", &mp.track_min_inliers,

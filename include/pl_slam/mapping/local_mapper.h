@@ -39,6 +39,10 @@ struct MappingOptions {
   /// After insertion, merge landmarks mapped twice (the keyframe's landmarks matched with
   /// other local-map landmarks at the same place), so revisits do not pile up copies.
   bool fuse_duplicates = true;
+  /// Trajectory output: a frame between two keyframes blends the corrections that bundle
+  /// adjustment and loop closing gave them, by its time between them, instead of following
+  /// only the earlier one (which leaves a step at every keyframe).
+  bool interpolate_trajectory = true;
   int local_map_keyframes = 10;  ///< covisible keyframes whose landmarks form the local map
   int cull_after_keyframes = 3;  ///< a landmark still seen by < min_observations keyframes this
                                  ///< many keyframes after its creation is removed
