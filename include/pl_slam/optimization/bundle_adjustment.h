@@ -19,7 +19,7 @@ namespace pl_slam {
 
 /// Options of SolveBundleAdjustment.
 struct BundleAdjustmentOptions {
-  int max_iterations = 5;  ///< Levenberg-Marquardt iterations per pass
+  int max_iterations = 3;  ///< Levenberg-Marquardt iterations per pass (see BENCHMARKS)
   /// Re-optimise without the outliers of the first pass. Off by default: on the benchmark
   /// sequences it changed ATE by under 0.3 mm and doubled the time of local BA.
   bool second_pass = false;
