@@ -18,10 +18,12 @@ WorkerThread::~WorkerThread() {
 void WorkerThread::Start(std::function<void()> job) {
   std::unique_lock<std::mutex> lock(mutex_);
   cv_.wait(lock, [this] { return !has_job_; });
+  // Started before the job is posted: if the system refuses a thread, the exception leaves
+  // the worker as it was (no job that nothing would ever run or Wait() would wait for).
+  if (!thread_.joinable()) thread_ = std::thread([this] { Loop(); });
   job_ = std::move(job);
   error_ = nullptr;
   has_job_ = true;
-  if (!thread_.joinable()) thread_ = std::thread([this] { Loop(); });
   lock.unlock();
   cv_.notify_all();
 }
