@@ -368,6 +368,10 @@ int Run(int argc, char** argv) {
               << ls.relocalizations << " relocalisations, " << ls.database_keyframes
               << " keyframes in the database; query median " << Percentile(ls.query_ms, 0.5)
               << " ms, correction median " << Percentile(ls.correction_ms, 0.5) << " ms\n";
+    if (ms.global_bas + ms.global_bas_discarded > 0)
+      std::cout << "global BA: " << ms.global_bas << " merged, " << ms.global_bas_discarded
+                << " discarded; solve median " << Percentile(ms.global_ba_ms, 0.5) << " ms, max "
+                << Percentile(ms.global_ba_ms, 1.0) << " ms\n";
     for (const auto& l : ls.loops)
       std::cout << "  loop: keyframe " << l.query << " -> " << l.candidate << " (frames "
                 << l.query_frame << " -> " << l.candidate_frame << ", " << l.inliers

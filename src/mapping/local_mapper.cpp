@@ -11,6 +11,7 @@
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 #include "pl_slam/util/validation.h"
+#include "pl_slam/util/worker_thread.h"
 
 namespace pl_slam {
 
@@ -53,7 +54,17 @@ struct LocalMapper::Impl {
   std::atomic<LoopCloser*> loop{nullptr};
   PoseGraphOptions pose_graph;
   double loop_edge_weight = 1.0;
+  bool global_ba = false;
+  int global_ba_iterations = 10;
   std::atomic<int> corrections{0};
+  // Global bundle adjustment. The job and `global_ba_running` belong to the mapping thread;
+  // the helper thread only solves the job. `global_ba_pending` (under `mutex`) tells Flush()
+  // and Clear() that a result is still to be merged or discarded.
+  std::unique_ptr<mapping::GlobalBa> global_ba_job;
+  bool global_ba_running = false;
+  bool global_ba_pending = false;
+  std::atomic<bool> global_ba_abort{false};
+  std::atomic<bool> global_ba_done{false};
 
   /// Corrects the loops the loop closer has verified (mapping thread, between keyframes).
   void CorrectPendingLoops() {
@@ -67,13 +78,82 @@ struct LocalMapper::Impl {
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                 .count());
         ++corrections;
+        if (global_ba) StartGlobalBa();
       }
     }
+  }
+
+  /// Waits for the helper's solve to end (mapping thread); its exception becomes a failure.
+  void JoinGlobalBa() {
+    try {
+      global_ba_thread.Wait();
+    } catch (const std::exception& e) {
+      global_ba_job->summary.success = false;
+      global_ba_job->summary.message = e.what();
+    }
+    global_ba_running = false;
+  }
+
+  /// Merges or discards a finished job (mapping thread) and counts it.
+  void FinishGlobalBa(bool discard) {
+    const bool merged = !discard && mapping::ApplyGlobalBundleAdjustment(ctx, *global_ba_job);
+    if (!merged && !discard)
+      PL_LOG_WARN("global bundle adjustment failed: " << global_ba_job->summary.message);
+    const double ms = global_ba_job->summary.solve_ms;
+    global_ba_job.reset();
+    std::lock_guard<std::mutex> lock(mutex);
+    if (merged) {
+      ++stats.global_bas;
+      stats.global_ba_ms.push_back(ms);
+    } else {
+      ++stats.global_bas_discarded;
+    }
+    global_ba_pending = false;
+  }
+
+  /// Starts a global BA of the map just corrected; a running one is stale: aborted first.
+  void StartGlobalBa() {
+    if (global_ba_running) {
+      global_ba_abort = true;
+      JoinGlobalBa();
+      FinishGlobalBa(true);
+    }
+    auto job = std::make_unique<mapping::GlobalBa>();
+    if (!mapping::PrepareGlobalBundleAdjustment(ctx, job.get())) return;
+    global_ba_job = std::move(job);
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      global_ba_pending = true;
+    }
+    global_ba_abort = false;
+    if (!ctx.options.threaded) {
+      mapping::SolveGlobalBundleAdjustment(ctx, global_ba_iterations, nullptr,
+                                           global_ba_job.get());
+      FinishGlobalBa(false);
+      return;
+    }
+    global_ba_done = false;
+    global_ba_running = true;
+    mapping::GlobalBa* const target = global_ba_job.get();
+    global_ba_thread.Start([this, target] {
+      mapping::SolveGlobalBundleAdjustment(ctx, global_ba_iterations, &global_ba_abort, target);
+      global_ba_done = true;
+    });
+  }
+
+  /// Merges a global BA whose solve has ended (mapping thread); an aborted one is discarded.
+  void PollGlobalBa() {
+    if (!global_ba_running) return;
+    const bool abort = global_ba_abort.load();
+    if (!global_ba_done.load() && !abort) return;
+    JoinGlobalBa();
+    FinishGlobalBa(abort);
   }
 
   void Process(KeyframeInput* input) {
     const auto t0 = std::chrono::steady_clock::now();
     const KeyframeId id = input->id;
+    PollGlobalBa();
     mapping::InsertKeyframe(ctx, input);
     const BaSummary ba = mapping::LocalBundleAdjustment(ctx, id);
     const int culled = mapping::Cull(ctx, id);
@@ -103,6 +183,7 @@ struct LocalMapper::Impl {
         busy = true;
         lock.unlock();
         try {
+          PollGlobalBa();
           CorrectPendingLoops();
         } catch (const std::exception& e) {
           PL_LOG_ERROR("loop correction failed: " << e.what());
@@ -125,9 +206,19 @@ struct LocalMapper::Impl {
       busy = false;
       idle_cv.notify_all();
     }
+    lock.unlock();
+    if (global_ba_running) {  // stopping: the result is not wanted
+      global_ba_abort = true;
+      JoinGlobalBa();
+      FinishGlobalBa(true);
+    }
+    lock.lock();
     busy = false;
     idle_cv.notify_all();
   }
+
+  // Last member: destroyed first, so its job never outlives what it uses.
+  WorkerThread global_ba_thread;
 };
 
 LocalMapper::LocalMapper(const StereoCamera& camera, const MappingOptions& options,
@@ -148,6 +239,7 @@ LocalMapper::~LocalMapper() {
     impl_->stop = true;
     impl_->queue.clear();
   }
+  impl_->global_ba_abort = true;
   impl_->work_cv.notify_all();
   if (impl_->thread.joinable()) impl_->thread.join();
 }
@@ -172,22 +264,27 @@ bool LocalMapper::Submit(KeyframeInput keyframe) {
 
 void LocalMapper::Flush() {
   std::unique_lock<std::mutex> lock(impl_->mutex);
-  impl_->idle_cv.wait(lock,
-                      [this] { return impl_->stop || (impl_->queue.empty() && !impl_->busy); });
+  impl_->idle_cv.wait(lock, [this] {
+    return impl_->stop ||
+           (impl_->queue.empty() && !impl_->busy && !impl_->global_ba_pending);
+  });
 }
 
 void LocalMapper::Clear() {
   std::unique_lock<std::mutex> lock(impl_->mutex);
   impl_->queue.clear();
-  impl_->idle_cv.wait(lock, [this] { return impl_->stop || !impl_->busy; });
+  impl_->global_ba_abort = true;  // the mapping thread discards it at its next wake-up
+  impl_->idle_cv.wait(
+      lock, [this] { return impl_->stop || (!impl_->busy && !impl_->global_ba_pending); });
 }
 
-void LocalMapper::SetLoopCloser(LoopCloser* loop, const PoseGraphOptions& pose_graph,
-                                double loop_edge_weight) {
+void LocalMapper::SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& options) {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   impl_->loop.store(loop);
-  impl_->pose_graph = pose_graph;
-  impl_->loop_edge_weight = loop_edge_weight;
+  impl_->pose_graph = options.pose_graph;
+  impl_->loop_edge_weight = options.loop_edge_weight;
+  impl_->global_ba = options.global_ba;
+  impl_->global_ba_iterations = options.global_ba_iterations;
 }
 
 int LocalMapper::loop_corrections() const { return impl_->corrections.load(); }

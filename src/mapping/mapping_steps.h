@@ -2,7 +2,9 @@
 // Internal to src/mapping.
 #pragma once
 
+#include <atomic>
 #include <memory>
+#include <vector>
 
 #include "pl_slam/camera/stereo_camera.h"
 #include "pl_slam/map/map.h"
@@ -26,8 +28,48 @@ struct Context {
 /// and new landmarks from its remaining stereo features.
 void InsertKeyframe(const Context& ctx, KeyframeInput* input);
 
+/// A part of the map copied into a bundle adjustment problem, with the ids to write it back.
+struct BaWindow {
+  BaProblem problem;
+  std::vector<KeyframeId> pose_ids;  ///< per problem pose
+  std::vector<LandmarkId> point_ids, line_ids;
+  std::vector<std::pair<LandmarkId, KeyframeId>> point_obs_ids, line_obs_ids;
+};
+
+/// Caller holds the map lock. Copies keyframes `free` (optimised), every landmark they observe
+/// with at least two observations, and up to `max_fixed` other keyframes observing those
+/// landmarks (held fixed, the ones sharing most first); with none of those, the oldest free
+/// keyframe is fixed (the gauge). False when fewer than two keyframes exist.
+bool BuildBaWindowLocked(const Context& ctx, const std::vector<KeyframeId>& free, int max_fixed,
+                         BaWindow* window);
+
+/// Caller holds the map lock. Writes the solved poses and landmarks back (line extents
+/// re-anchored to an observation) and removes the outlier observations.
+void ApplyBaWindowLocked(const Context& ctx, const BaWindow& window, const BaSummary& summary);
+
 /// Local bundle adjustment around keyframe `id`; outlier observations are removed.
 BaSummary LocalBundleAdjustment(const Context& ctx, KeyframeId id);
+
+/// A global bundle adjustment: the whole map copied at one moment, solved, then merged.
+struct GlobalBa {
+  BaWindow window;
+  std::vector<SE3, Eigen::aligned_allocator<SE3>> before;  ///< poses when copied
+  BaSummary summary;
+};
+
+/// Copies every keyframe and landmark (mapping thread). False when there is nothing to adjust.
+bool PrepareGlobalBundleAdjustment(const Context& ctx, GlobalBa* job);
+
+/// Solves a prepared job without touching the map (any thread). Stops early, unsuccessful,
+/// when `abort` becomes true.
+void SolveGlobalBundleAdjustment(const Context& ctx, int max_iterations,
+                                 const std::atomic<bool>* abort, GlobalBa* job);
+
+/// Merges a solved job into the map (mapping thread): copied keyframes and landmarks take the
+/// solution; keyframes inserted since the copy move with their spanning-tree ancestor's
+/// correction, and landmarks left out (new, or seen once) with their reference keyframe's.
+/// False when the solve did not succeed (the map is left alone).
+bool ApplyGlobalBundleAdjustment(const Context& ctx, const GlobalBa& job);
 
 /// Removes landmarks that were not re-observed and keyframes whose landmarks are seen by
 /// enough others; returns the number of keyframes culled.

@@ -74,10 +74,22 @@ Evaluation EvaluateLine(const StereoCamera& cam, const SE3& T_c_w, const Eigen::
   return ev;
 }
 
+/// Stops the solver when the owner's flag is set (a global BA made stale by a new loop).
+class AbortCallback : public ceres::IterationCallback {
+ public:
+  explicit AbortCallback(const std::atomic<bool>* abort) : abort_(abort) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary&) override {
+    return abort_->load() ? ceres::SOLVER_ABORT : ceres::SOLVER_CONTINUE;
+  }
+
+ private:
+  const std::atomic<bool>* abort_;
+};
+
 }  // namespace
 
 BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustmentOptions& options,
-                                BaProblem* problem) {
+                                BaProblem* problem, const std::atomic<bool>* abort) {
   const std::string err = options.Validate();
   if (!err.empty()) throw ConfigError("bundle_adjustment." + err);
   const auto t0 = std::chrono::steady_clock::now();
@@ -192,6 +204,8 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   solver.num_threads = options.num_threads;
   solver.logging_type = ceres::SILENT;
   solver.minimizer_progress_to_stdout = false;
+  AbortCallback abort_callback(abort);
+  if (abort) solver.callbacks.push_back(&abort_callback);
 
   // Flags the observations still in the problem; removed ones keep their flag.
   auto flag_outliers = [&]() {
@@ -226,7 +240,8 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   summary.final_cost = first.final_cost;
   summary.iterations = static_cast<int>(first.iterations.size());
   summary.success = first.IsSolutionUsable();
-  if (!summary.success) summary.message = first.message;
+  if (!summary.success)
+    summary.message = abort && abort->load() ? std::string("aborted") : first.message;
   flag_outliers();
   if (summary.success && options.second_pass &&
       summary.point_outliers + summary.line_outliers > 0) {
@@ -245,7 +260,8 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
     summary.final_cost = second.final_cost;
     summary.iterations += static_cast<int>(second.iterations.size());
     summary.success = second.IsSolutionUsable();
-    if (!summary.success) summary.message = second.message;
+    if (!summary.success)
+      summary.message = abort && abort->load() ? std::string("aborted") : second.message;
     flag_outliers();
   }
   if (summary.success) {

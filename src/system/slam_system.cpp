@@ -105,7 +105,7 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const SystemOptions& options)
       impl_->loop =
           std::make_unique<LoopCloser>(camera, lo, impl_->map.get(), options.mapping.threaded);
       if (lo.enabled)
-        impl_->mapper->SetLoopCloser(impl_->loop.get(), lo.pose_graph, lo.loop_edge_weight);
+        impl_->mapper->SetLoopCloser(impl_->loop.get(), lo);
     }
   }
 }

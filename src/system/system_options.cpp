@@ -219,6 +219,10 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "database results tried for relocalisation");
   t.Add("loop.loop_edge_weight", &lc.loop_edge_weight,
         "information of a loop edge relative to a pose-graph edge");
+  t.Add("loop.global_ba", &lc.global_ba,
+        "after a loop correction, bundle-adjust the whole map in the background");
+  t.Add("loop.global_ba_iterations", &lc.global_ba_iterations,
+        "Levenberg-Marquardt iterations of that global bundle adjustment");
   t.Add("loop.database.line_weight", &lc.database.line_weight,
         "weight of a line relative to a point in the combined score");
   t.Add("loop.verification.min_inliers", &lc.verification.min_inliers,

@@ -1,9 +1,11 @@
 // Loop closing and relocalisation through the SlamSystem on rendered sequences with exact
 // ground truth: the room's revisit is detected and every accepted loop is a true revisit,
-// the corridor (no revisit) gives none, and tracking recovers after 20 blank frames in the
-// same map frame.
+// the global bundle adjustment after it lowers the error (sequential) and is merged before
+// Flush() returns (threaded), the corridor (no revisit) gives none, and tracking recovers
+// after 20 blank frames in the same map frame.
 #include <gtest/gtest.h>
 
+#include "pl_slam/eval/evaluation.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
 #include "test_util/system_options.h"
@@ -15,9 +17,11 @@ SystemOptions Options() { return testing_util::SequentialWithVocabulary(); }
 
 struct Outcome {
   LoopStats loops;
+  MappingStats mapping;
   int map_keyframes = 0;
   Trajectory estimate;
   Trajectory truth;
+  double ate = 0.0;  ///< SE(3)-aligned RMSE, m
 };
 
 Outcome RunScene(sim::SceneKind scene, int frames, const SystemOptions& options) {
@@ -31,13 +35,24 @@ Outcome RunScene(sim::SceneKind scene, int frames, const SystemOptions& options)
   Outcome out;
   out.loops = system.loop_stats();
   out.map_keyframes = static_cast<int>(system.map().counts().keyframes);
+  out.mapping = system.mapping_stats();
   out.estimate = system.trajectory();
   out.truth = seq.ground_truth();
+  Trajectory gt(out.truth.begin(), out.truth.begin() + std::min<size_t>(frames, out.truth.size()));
+  std::vector<double> times;
+  for (const auto& s : gt) times.push_back(s.t);
+  out.ate = eval::EvaluateTrajectory(out.estimate, gt, times).ate.translation.rmse;
+  return out;
+}
+
+/// The room's single lap, sequential, with loop closing (computed once).
+const Outcome& Room() {
+  static const Outcome out = RunScene(sim::SceneKind::kRoom, 480, Options());
   return out;
 }
 
 TEST(LoopCloserTest, RoomRevisitIsDetectedAndEveryLoopIsTrue) {
-  const Outcome out = RunScene(sim::SceneKind::kRoom, 480, Options());
+  const Outcome& out = Room();
   std::cout << "room: " << out.loops.loops_detected << " loops, " << out.loops.candidates_verified
             << " candidates verified\n";
   ASSERT_GE(out.loops.loops_detected, 1);
@@ -61,6 +76,36 @@ TEST(LoopCloserTest, RoomRevisitIsDetectedAndEveryLoopIsTrue) {
     EXPECT_LT(err.translation().norm(), 0.05);
     EXPECT_LT(err.RotationAngle() * 180 / M_PI, 2.0);
   }
+}
+
+TEST(LoopCloserTest, GlobalBundleAdjustmentFollowsEveryCorrectionAndLowersTheError) {
+  const Outcome& with = Room();
+  ASSERT_GE(with.loops.loops_corrected, 1);
+  // Sequential: each correction's global BA runs in place and is merged.
+  EXPECT_EQ(with.mapping.global_bas, with.loops.loops_corrected);
+  EXPECT_EQ(with.mapping.global_bas_discarded, 0);
+  SystemOptions options = Options();
+  options.loop.global_ba = false;
+  const Outcome without = RunScene(sim::SceneKind::kRoom, 480, options);
+  EXPECT_EQ(without.mapping.global_bas, 0);
+  EXPECT_EQ(without.loops.loops_corrected, with.loops.loops_corrected);
+  std::cout << "room ATE: pose graph only " << without.ate * 1000 << " mm, with global BA "
+            << with.ate * 1000 << " mm\n";
+  EXPECT_LT(with.ate, without.ate);
+}
+
+TEST(LoopCloserTest, ThreadedGlobalBundleAdjustmentIsMergedBeforeFlushReturns) {
+  SystemOptions options = Options();
+  options.mapping.threaded = true;
+  const Outcome out = RunScene(sim::SceneKind::kRoom, 480, options);
+  std::cout << "threaded room: " << out.loops.loops_corrected << " loops corrected, "
+            << out.mapping.global_bas << " global BAs merged, " << out.mapping.global_bas_discarded
+            << " discarded, ATE " << out.ate * 1000 << " mm\n";
+  ASSERT_GE(out.loops.loops_corrected, 1);
+  // The last correction's global BA is never discarded: Flush() waits for it to be merged.
+  EXPECT_GE(out.mapping.global_bas, 1);
+  EXPECT_EQ(out.mapping.global_bas + out.mapping.global_bas_discarded, out.loops.loops_corrected);
+  EXPECT_LT(out.ate, 0.01);
 }
 
 TEST(LoopCloserTest, CorridorWithoutRevisitGivesNoLoop) {

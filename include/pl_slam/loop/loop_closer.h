@@ -36,6 +36,11 @@ struct LoopClosingOptions {
   int consistency = 2;                ///< consecutive keyframes whose candidate groups must agree
   int relocalize_candidates = 5;      ///< database results tried for relocalisation
   double loop_edge_weight = 1.0;      ///< information of a loop edge relative to a graph edge
+  /// After each loop correction, bundle-adjust the whole map on a helper thread (local mapping
+  /// merges the result between keyframes; a newer loop aborts a running one). Sequential mode
+  /// runs it in place.
+  bool global_ba = true;
+  int global_ba_iterations = 10;  ///< its Levenberg-Marquardt iterations
   KeyframeDatabaseOptions database;   ///< "database.*"
   RelativePoseOptions verification;   ///< "verification.*"
   PoseGraphOptions pose_graph;        ///< "pose_graph.*"

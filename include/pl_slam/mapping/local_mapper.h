@@ -23,7 +23,7 @@
 namespace pl_slam {
 
 class LoopCloser;
-struct PoseGraphOptions;
+struct LoopClosingOptions;
 
 /// Options of local mapping and of tracking against the local map.
 struct MappingOptions {
@@ -99,6 +99,9 @@ struct MappingStats {
   double last_keyframe_ms = 0.0;  ///< whole processing of the last keyframe
   std::vector<double> ba_ms;      ///< every local BA, for benchmarks
   std::vector<double> keyframe_ms;
+  int global_bas = 0;             ///< global bundle adjustments merged into the map
+  int global_bas_discarded = 0;   ///< aborted by a newer loop or a reset, or failed
+  std::vector<double> global_ba_ms;  ///< solve time of each merged one
 };
 
 /// The options of the modules local mapping reuses from tracking.
@@ -123,14 +126,17 @@ class LocalMapper {
   /// Hands over a keyframe. Threaded: queued, or dropped (returns false) when the queue is full.
   /// Sequential: processed before returning.
   bool Submit(KeyframeInput keyframe);
-  /// Blocks until every queued keyframe has been processed.
+  /// Blocks until every queued keyframe has been processed and a running global bundle
+  /// adjustment has been merged.
   void Flush();
-  /// Discards queued keyframes and waits for the one in progress (before a reset).
+  /// Discards queued keyframes, aborts a running global bundle adjustment and waits for the
+  /// keyframe in progress (before a reset).
   void Clear();
   /// Connects loop closing: every processed keyframe goes to `loop`, and its verified loops
-  /// are corrected here, between keyframes (local mapping is the map's only writer). Call
-  /// before the first Submit(); `loop` must outlive this mapper.
-  void SetLoopCloser(LoopCloser* loop, const PoseGraphOptions& pose_graph, double loop_edge_weight);
+  /// are corrected here, between keyframes (local mapping is the map's only writer), with
+  /// `options`' pose graph, loop edge weight and global bundle adjustment. Call before the
+  /// first Submit(); `loop` must outlive this mapper.
+  void SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& options);
   /// Incremented after every loop correction (trackers re-anchor to their reference keyframe).
   int loop_corrections() const;
   MappingStats stats() const;

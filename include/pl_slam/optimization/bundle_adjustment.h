@@ -6,6 +6,7 @@
 // it without holding the map lock, and writes the result back.
 #pragma once
 
+#include <atomic>
 #include <string>
 #include <vector>
 
@@ -92,8 +93,10 @@ struct BaSummary {
 
 /// Optimises `problem` in place (poses not fixed, every landmark). At least one pose must be
 /// fixed (the gauge); when none is, the first is held fixed. Throws ConfigError on invalid
-/// options; bad indices in observations are skipped.
+/// options; bad indices in observations are skipped. When `abort` is given and becomes true,
+/// the solve stops after the current iteration and reports no success ("aborted"), leaving
+/// `problem` unchanged.
 BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustmentOptions& options,
-                                BaProblem* problem);
+                                BaProblem* problem, const std::atomic<bool>* abort = nullptr);
 
 }  // namespace pl_slam
