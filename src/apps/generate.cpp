@@ -23,12 +23,15 @@ constexpr char kUsage[] =
     "  --noise SIGMA         image noise, grey levels (default 2)\n"
     "  --seed S              random seed (default 1)\n"
     "  --exposure-change     vary exposure over the sequence\n"
+    "  --baseline M          stereo baseline in metres (default 0.11; smaller = far-scene\n"
+    "                        disparities, like a car's camera on a road)\n"
     "  --start-time S        first timestamp in seconds (default 1000)\n";
 
 int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(
       argc, argv,
-      {"scene", "euroc", "bag", "frames", "loops", "rate", "noise", "seed", "start-time"},
+      {"scene", "euroc", "bag", "frames", "loops", "rate", "noise", "seed", "start-time",
+       "baseline"},
       {"exposure-change", "help"});
   if (cl.Has("help")) {
     std::cout << kUsage;
@@ -48,6 +51,7 @@ int Run(int argc, char** argv) {
   opt.exposure_change = cl.Has("exposure-change");
   // ROS time cannot be negative and a zero stamp means "unset" to many tools.
   opt.start_time_s = cl.GetDouble("start-time", 1000.0);
+  opt.baseline = cl.GetDouble("baseline", opt.baseline);
   pl_slam::sim::SyntheticSequence seq(opt);
 
   std::unique_ptr<pl_slam::EurocWriter> euroc;
