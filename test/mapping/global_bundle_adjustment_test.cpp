@@ -7,6 +7,7 @@
 #include <random>
 
 #include "../../src/mapping/mapping_steps.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
@@ -19,16 +20,7 @@ struct Fixture {
   std::vector<LandmarkId> point_ids;
 };
 
-StereoCamera Camera() {
-  StereoCamera c;
-  c.fx = c.fy = 400.0;
-  c.cx = 376.0;
-  c.cy = 240.0;
-  c.baseline = 0.11;
-  c.width = 752;
-  c.height = 480;
-  return c;
-}
+StereoCamera Camera() { return testing_util::EurocSizedCamera(); }
 
 /// Observation of a world point by a keyframe, exact.
 PointFeature Observe(const StereoCamera& cam, const SE3& T_w_c, const Eigen::Vector3d& p_w) {
