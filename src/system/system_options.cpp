@@ -21,6 +21,14 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "largest accepted frame-to-frame rotation, deg");
   t.Add("tracker.line_weight", &tr.line_weight,
         "information of a line residual relative to a point's");
+  t.Add("tracker.track_keyframe", &tr.track_keyframe,
+        "refine each pose against the last keyframe (errors add up per keyframe, not per frame)");
+  t.Add("tracker.keyframe_min_inlier_ratio", &tr.keyframe_min_inlier_ratio,
+        "keyframe inliers per frame-to-frame inlier needed to use that refinement");
+  t.Add("tracker.keyframe_max_correction", &tr.keyframe_max_correction,
+        "largest accepted keyframe refinement, m");
+  t.Add("tracker.keyframe_max_correction_deg", &tr.keyframe_max_correction_deg,
+        "largest accepted keyframe refinement, deg");
 
   PointDetectorOptions& p = tr.points;
   t.Add("tracker.points.max_points", &p.max_points, "ORB keypoints kept per image");

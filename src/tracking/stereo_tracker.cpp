@@ -39,6 +39,12 @@ std::string TrackerOptions::Validate() const {
     os << "max_rotation_deg=" << max_rotation_deg << " must be in (0, 180]";
   else if (!(line_weight > 0.0 && line_weight <= 100.0))
     os << "line_weight=" << line_weight << " must be in (0, 100]";
+  else if (!(keyframe_min_inlier_ratio >= 0.0 && keyframe_min_inlier_ratio <= 100.0))
+    os << "keyframe_min_inlier_ratio=" << keyframe_min_inlier_ratio << " must be in [0, 100]";
+  else if (!(keyframe_max_correction > 0.0 && keyframe_max_correction <= 100.0))
+    os << "keyframe_max_correction=" << keyframe_max_correction << " must be in (0, 100]";
+  else if (!(keyframe_max_correction_deg > 0.0 && keyframe_max_correction_deg <= 180.0))
+    os << "keyframe_max_correction_deg=" << keyframe_max_correction_deg << " must be in (0, 180]";
   if (!os.str().empty()) return os.str();
   const std::pair<const char*, std::string> nested[] = {
       {"points.", points.Validate()}, {"point_matching.", point_matching.Validate()},
@@ -78,6 +84,10 @@ struct StereoTracker::Impl {
   bool initialized = false;
   StereoFeatures previous;
   SE3 T_w_c;
+  // The last keyframe (track_keyframe): its features, in its camera frame, and its pose.
+  bool has_keyframe = false;
+  StereoFeatures keyframe;
+  SE3 T_w_keyframe;
   SE3 velocity_cur_prev;  // last T_cur_prev: the constant-velocity prior
   bool velocity_valid = false;
   TrackerState state = TrackerState::kNotInitialized;
@@ -96,6 +106,72 @@ struct StereoTracker::Impl {
   void Detect(const cv::Mat& image, ImageFeatures* f) const {
     if (use_points) point_detector.Detect(image, &f->keypoints, &f->point_descriptors);
     if (use_lines) line_detector.Detect(image, &f->lines, &f->line_descriptors);
+  }
+
+  struct Estimation {
+    MotionEstimate est;
+    int point_matches = 0, line_matches = 0;
+    double matching_ms = 0.0, motion_ms = 0.0;
+  };
+
+  /// Matches the features of a reference frame `ref` (with depth, in its camera frame) to the
+  /// current frame, guided by `prior` (T_cur_ref) when given, and estimates T_cur_ref.
+  Estimation EstimateAgainst(const StereoFeatures& ref, const StereoFeatures& cur,
+                             const SE3* prior) const {
+    Estimation out;
+    auto t0 = Clock::now();
+    std::vector<std::pair<int, int>> point_matches, line_matches;
+    if (use_points) {
+      point_matches =
+          MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors, cur.points,
+                                  cur.point_descriptors, options.point_matching, prior);
+      if (prior && static_cast<int>(point_matches.size()) < 2 * options.min_inliers) {
+        // The prediction may be wrong (sudden motion change): search everywhere.
+        point_matches = MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors,
+                                                cur.points, cur.point_descriptors,
+                                                options.point_matching);
+      }
+    }
+    if (use_lines) {
+      LinePrediction prediction;
+      if (prior) prediction.T_cur_prev = *prior;
+      prediction.camera = camera;
+      line_matches = MatchLines(ref.lines, ref.line_descriptors, cur.lines, cur.line_descriptors,
+                                options.line_matching, prior ? &prediction : nullptr);
+      if (prior && static_cast<int>(line_matches.size()) < options.min_inliers) {
+        line_matches = MatchLines(ref.lines, ref.line_descriptors, cur.lines,
+                                  cur.line_descriptors, options.line_matching);
+      }
+    }
+    out.point_matches = static_cast<int>(point_matches.size());
+    out.line_matches = static_cast<int>(line_matches.size());
+    out.matching_ms = MsSince(t0);
+
+    t0 = Clock::now();
+    PointMatches3D2D pm;
+    LineMatches3D2D lm;
+    pm.reserve(point_matches.size());
+    for (const auto& [i, j] : point_matches) {
+      PointMatch3D2D m;
+      m.P_prev = ref.points[i].p_c;
+      m.uv_cur = cur.points[j].uv;
+      // Keypoints of coarser pyramid levels are localised less precisely.
+      m.weight = std::pow(options.points.scale_factor, -2.0 * cur.points[j].octave);
+      pm.push_back(m);
+    }
+    for (const auto& [i, j] : line_matches) {
+      const LineFeature& lr = ref.lines[i];
+      if (!lr.has_depth) continue;
+      LineMatch3D2D m;
+      m.P_prev = lr.P_c;
+      m.Q_prev = lr.Q_c;
+      m.l_cur = cur.lines[j].l;
+      m.weight = options.line_weight;
+      lm.push_back(m);
+    }
+    out.est = EstimateMotion(camera, pm, lm, prior ? *prior : SE3(), options.motion);
+    out.motion_ms = MsSince(t0);
+    return out;
   }
 };
 
@@ -121,10 +197,16 @@ void StereoTracker::Reset() {
   s.velocity_valid = false;
   s.state = TrackerState::kNotInitialized;
   s.selector.Reset();
+  s.has_keyframe = false;
 }
 
 void StereoTracker::CorrectPose(const SE3& T_w_c) {
-  if (T_w_c.IsFinite()) impl_->T_w_c = T_w_c;
+  Impl& s = *impl_;
+  if (!T_w_c.IsFinite()) return;
+  // The keyframe moves with the frame, so the next keyframe-relative pose is in the
+  // corrected frame too.
+  s.T_w_keyframe = T_w_c * s.T_w_c.inverse() * s.T_w_keyframe;
+  s.T_w_c = T_w_c;
 }
 
 void StereoTracker::Relocalized(const SE3& T_w_c) {
@@ -136,6 +218,7 @@ void StereoTracker::Relocalized(const SE3& T_w_c) {
   s.velocity_valid = false;
   s.selector.Reset();
   s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
+  s.has_keyframe = false;
 }
 
 TrackerResult StereoTracker::Track(const StereoFrame& frame) {
@@ -182,65 +265,17 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame) {
   result.lines_detected = static_cast<int>(cur.lines.size());
   result.stage_ms.emplace_back("stereo", MsSince(t0));
 
-  // 3. Frame-to-frame matching, guided by the constant-velocity prior when there is one.
-  t0 = Clock::now();
+  // 3-4. Frame-to-frame matching, guided by the constant-velocity prior when there is one,
+  //      and robust motion estimation.
   const SE3 prior = s.velocity_valid ? s.velocity_cur_prev : SE3();
-  std::vector<std::pair<int, int>> point_matches, line_matches;
-  if (s.has_previous) {
-    if (s.use_points) {
-      point_matches = MatchPointsFrameToFrame(
-          s.camera, s.previous.points, s.previous.point_descriptors, cur.points,
-          cur.point_descriptors, s.options.point_matching, s.velocity_valid ? &prior : nullptr);
-      if (s.velocity_valid && static_cast<int>(point_matches.size()) < 2 * s.options.min_inliers) {
-        // The prediction may be wrong (sudden motion change): search everywhere.
-        point_matches =
-            MatchPointsFrameToFrame(s.camera, s.previous.points, s.previous.point_descriptors,
-                                    cur.points, cur.point_descriptors, s.options.point_matching);
-      }
-    }
-    if (s.use_lines) {
-      LinePrediction prediction;
-      prediction.T_cur_prev = prior;
-      prediction.camera = s.camera;
-      line_matches =
-          MatchLines(s.previous.lines, s.previous.line_descriptors, cur.lines, cur.line_descriptors,
-                     s.options.line_matching, s.velocity_valid ? &prediction : nullptr);
-      if (s.velocity_valid && static_cast<int>(line_matches.size()) < s.options.min_inliers) {
-        line_matches = MatchLines(s.previous.lines, s.previous.line_descriptors, cur.lines,
-                                  cur.line_descriptors, s.options.line_matching);
-      }
-    }
-  }
-  result.point_matches = static_cast<int>(point_matches.size());
-  result.line_matches = static_cast<int>(line_matches.size());
-  result.stage_ms.emplace_back("matching", MsSince(t0));
-
-  // 4. Robust motion estimation.
-  t0 = Clock::now();
   bool tracked = false;
+  Impl::Estimation f2f;
+  if (s.has_previous) f2f = s.EstimateAgainst(s.previous, cur, s.velocity_valid ? &prior : nullptr);
+  result.point_matches = f2f.point_matches;
+  result.line_matches = f2f.line_matches;
+  result.stage_ms.emplace_back("matching", f2f.matching_ms);
   if (s.has_previous) {
-    PointMatches3D2D pm;
-    LineMatches3D2D lm;
-    pm.reserve(point_matches.size());
-    for (const auto& [i, j] : point_matches) {
-      PointMatch3D2D m;
-      m.P_prev = s.previous.points[i].p_c;
-      m.uv_cur = cur.points[j].uv;
-      // Keypoints of coarser pyramid levels are localised less precisely.
-      m.weight = std::pow(s.options.points.scale_factor, -2.0 * cur.points[j].octave);
-      pm.push_back(m);
-    }
-    for (const auto& [i, j] : line_matches) {
-      const LineFeature& lp = s.previous.lines[i];
-      if (!lp.has_depth) continue;
-      LineMatch3D2D m;
-      m.P_prev = lp.P_c;
-      m.Q_prev = lp.Q_c;
-      m.l_cur = cur.lines[j].l;
-      m.weight = s.options.line_weight;
-      lm.push_back(m);
-    }
-    const MotionEstimate est = EstimateMotion(s.camera, pm, lm, prior, s.options.motion);
+    const MotionEstimate& est = f2f.est;
     result.point_inliers = est.point_inliers;
     result.line_inliers = est.line_inliers;
     if (!est.success) {
@@ -259,13 +294,42 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame) {
         tracked = true;
         result.T_prev_cur = T_prev_cur;
         result.covariance_prev_cur = est.covariance_prev_cur;
-        s.T_w_c = s.T_w_c * T_prev_cur;
-        s.velocity_cur_prev = est.T_cur_prev;
-        s.velocity_valid = true;
       }
     }
   }
-  result.stage_ms.emplace_back("motion", MsSince(t0));
+  result.stage_ms.emplace_back("motion", f2f.motion_ms);
+
+  // 4b. The same against the last keyframe, predicted by the frame-to-frame pose: one
+  //     estimate per keyframe interval instead of a chain of per-frame ones.
+  if (tracked) {
+    const SE3 T_w_prev = s.T_w_c;
+    SE3 T_w_cur = T_w_prev * result.T_prev_cur;
+    if (s.options.track_keyframe && s.has_keyframe) {
+      t0 = Clock::now();
+      const SE3 predicted = T_w_cur.inverse() * s.T_w_keyframe;  // T_cur_keyframe
+      const Impl::Estimation kf = s.EstimateAgainst(s.keyframe, cur, &predicted);
+      const int kf_inliers = kf.est.point_inliers + kf.est.line_inliers;
+      const int f2f_inliers = result.point_inliers + result.line_inliers;
+      if (kf.est.success && kf_inliers >= s.options.min_inliers &&
+          kf_inliers >= s.options.keyframe_min_inlier_ratio * f2f_inliers) {
+        const SE3 refined = s.T_w_keyframe * kf.est.T_cur_prev.inverse();
+        const SE3 change = T_w_cur.inverse() * refined;
+        if (refined.IsFinite() &&
+            change.translation().norm() <= s.options.keyframe_max_correction &&
+            change.RotationAngle() * 180.0 / M_PI <= s.options.keyframe_max_correction_deg) {
+          T_w_cur = refined;
+          result.keyframe_refined = true;
+          // The increment follows the pose kept; the covariance stays the frame-to-frame
+          // one (the keyframe selector chains increments since the keyframe).
+          result.T_prev_cur = T_w_prev.inverse() * T_w_cur;
+        }
+      }
+      result.stage_ms.emplace_back("keyframe_match", MsSince(t0));
+    }
+    s.T_w_c = T_w_cur;
+    s.velocity_cur_prev = result.T_prev_cur.inverse();
+    s.velocity_valid = true;
+  }
 
   // 5. State, keyframe decision and the new reference frame.
   t0 = Clock::now();
@@ -295,6 +359,12 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame) {
     s.state = TrackerState::kLost;
     s.velocity_valid = false;
     s.selector.Reset();
+  }
+  if (s.state != TrackerState::kTracking) s.has_keyframe = false;
+  if (result.is_keyframe && s.options.track_keyframe) {
+    s.keyframe = cur;
+    s.T_w_keyframe = s.T_w_c;
+    s.has_keyframe = true;
   }
   if (usable > 0) {
     s.previous = std::move(cur);

@@ -35,6 +35,14 @@ struct TrackerOptions {
   double max_translation = 2.0;  ///< larger frame-to-frame motion (m) is rejected as a failure
   double max_rotation_deg = 60;  ///< larger frame-to-frame rotation (deg) is rejected
   double line_weight = 1.0;      ///< information of a line residual relative to a point's
+  /// Refine each frame-to-frame pose against the last keyframe: the keyframe's stereo
+  /// features are matched to the frame directly and the pose re-estimated from them, so
+  /// errors add up per keyframe instead of per frame.
+  bool track_keyframe = true;
+  /// The keyframe pose is used only with at least this many inliers per frame-to-frame inlier.
+  double keyframe_min_inlier_ratio = 0.5;
+  double keyframe_max_correction = 0.05;     ///< larger change (m) is refused as a mismatch
+  double keyframe_max_correction_deg = 2.0;  ///< larger change (deg) is refused
   PointDetectorOptions points;   ///< "points.*"
   PointMatchingOptions point_matching;  ///< "point_matching.*"
   LineDetectorOptions lines;            ///< "lines.*"
@@ -63,6 +71,7 @@ struct TrackerResult {
   int points_stereo = 0, lines_stereo = 0;               ///< with depth
   int point_matches = 0, line_matches = 0;               ///< frame-to-frame
   int point_inliers = 0, line_inliers = 0;               ///< kept by motion estimation
+  bool keyframe_refined = false;  ///< the pose comes from matching the last keyframe
   std::string warning;                                   ///< why tracking failed, when it did
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
 };
