@@ -3,6 +3,7 @@
 // mode processes every keyframe it accepts, and bad options are refused by name.
 #include <gtest/gtest.h>
 
+#include <map>
 #include <vector>
 
 #include "pl_slam/eval/evaluation.h"
@@ -20,11 +21,13 @@ struct Frames {
   std::vector<double> times;
 };
 
-const Frames& Room(int n) {
-  static Frames cache;
+/// The first n frames of a rendered scene (cached per scene).
+const Frames& Scene(sim::SceneKind kind, int n) {
+  static std::map<sim::SceneKind, Frames> caches;
+  Frames& cache = caches[kind];
   if (static_cast<int>(cache.frames.size()) < n) {
     sim::SequenceOptions so;
-    so.scene = sim::SceneKind::kRoom;
+    so.scene = kind;
     sim::SyntheticSequence seq(so);
     cache = Frames();
     cache.camera = seq.camera();
@@ -37,6 +40,8 @@ const Frames& Room(int n) {
   return cache;
 }
 
+const Frames& Room(int n) { return Scene(sim::SceneKind::kRoom, n); }
+
 struct RunOutcome {
   Trajectory trajectory;
   MapCounts counts;
@@ -45,8 +50,9 @@ struct RunOutcome {
   double ate = 0.0;
 };
 
-RunOutcome RunSystem(const SystemOptions& options, int n) {
-  const Frames& data = Room(n);
+RunOutcome RunSystem(const SystemOptions& options, int n,
+                     sim::SceneKind kind = sim::SceneKind::kRoom) {
+  const Frames& data = Scene(kind, n);
   SlamSystem system(data.camera, options);
   RunOutcome run;
   for (int i = 0; i < n; ++i) {
@@ -86,19 +92,28 @@ TEST(LocalMapperTest, SequentialModeIsBitIdentical) {
   EXPECT_GT(a.counts.lines, 10u);
 }
 
+// The fast turn (545 deg over 1.6 m) is where visual odometry drifts most. With the map the
+// error is lower than visual odometry's, whether or not VO refines its poses against the
+// last keyframe (tracker.track_keyframe). On slow, smooth parts (the room's first 240
+// frames) keyframe-refined VO is as accurate as the map; docs/BENCHMARKS.md has both.
 TEST(LocalMapperTest, MappingBeatsVisualOdometryAlone) {
+  const auto kFastTurn = sim::SceneKind::kFastTurn;
   SystemOptions vo = Sequential();
   vo.mapping.enabled = false;
-  const RunOutcome without = RunSystem(vo, 240);
-  const RunOutcome with = RunSystem(Sequential(), 240);
-  std::cout << "room 240 frames: ATE VO " << without.ate << " m, with mapping " << with.ate
+  const RunOutcome without = RunSystem(vo, 200, kFastTurn);
+  vo.tracker.track_keyframe = false;
+  const RunOutcome chain = RunSystem(vo, 200, kFastTurn);
+  const RunOutcome with = RunSystem(Sequential(), 200, kFastTurn);
+  std::cout << "fast_turn 200 frames: ATE VO " << without.ate << " m (frame-to-frame only "
+            << chain.ate << " m), with mapping " << with.ate
             << " m, " << with.counts.keyframes << " keyframes, " << with.counts.points
             << " points, " << with.counts.lines << " lines, BA median "
             << (with.stats.ba_ms.empty() ? 0.0 : with.stats.ba_ms[with.stats.ba_ms.size() / 2])
             << " ms\n";
-  EXPECT_EQ(with.trajectory.size(), 240u);
-  EXPECT_LT(with.ate, 0.8 * without.ate);
-  EXPECT_LT(with.ate, 0.01);
+  EXPECT_EQ(with.trajectory.size(), 200u);
+  EXPECT_LT(with.ate, 0.9 * without.ate);
+  EXPECT_LT(with.ate, 0.6 * chain.ate);
+  EXPECT_LT(with.ate, 0.005);
   EXPECT_EQ(without.counts.keyframes, 0u);
 }
 

@@ -51,7 +51,9 @@ struct MappingOptions {
   double redundant_ratio = 0.9;  ///< redundant: this share of its landmarks seen by enough others
   int redundant_min_observers = 3;  ///< "enough others"
   bool stereo_residuals = true;     ///< BA also uses the right image of stereo observations
-  double line_weight = 1.0;         ///< information of a line residual relative to a point's
+  /// Information of a line residual relative to a point's in local-map tracking, keyframe
+  /// refinement and bundle adjustment (same default and reason as tracker.line_weight).
+  double line_weight = 8.0;
   bool track_local_map = true;      ///< tracking also matches the local map (bounded drift)
   int track_min_inliers = 20;       ///< fewer local-map inliers: keep the frame-to-frame pose
   /// The local-map pose replaces the frame-to-frame one only with at least this many inliers
