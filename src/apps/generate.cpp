@@ -28,11 +28,10 @@ constexpr char kUsage[] =
     "  --start-time S        first timestamp in seconds (default 1000)\n";
 
 int Run(int argc, char** argv) {
-  const pl_slam::CommandLine cl(
-      argc, argv,
-      {"scene", "euroc", "bag", "frames", "loops", "rate", "noise", "seed", "start-time",
-       "baseline"},
-      {"exposure-change", "help"});
+  const pl_slam::CommandLine cl(argc, argv,
+                                {"scene", "euroc", "bag", "frames", "loops", "rate", "noise",
+                                 "seed", "start-time", "baseline"},
+                                {"exposure-change", "help"});
   if (cl.Has("help")) {
     std::cout << kUsage;
     return 0;

@@ -127,8 +127,7 @@ struct LocalMapper::Impl {
     }
     global_ba_abort = false;
     if (!ctx.options.threaded) {
-      mapping::SolveGlobalBundleAdjustment(ctx, global_ba_iterations, nullptr,
-                                           global_ba_job.get());
+      mapping::SolveGlobalBundleAdjustment(ctx, global_ba_iterations, nullptr, global_ba_job.get());
       FinishGlobalBa(false);
       return;
     }
@@ -265,8 +264,7 @@ bool LocalMapper::Submit(KeyframeInput keyframe) {
 void LocalMapper::Flush() {
   std::unique_lock<std::mutex> lock(impl_->mutex);
   impl_->idle_cv.wait(lock, [this] {
-    return impl_->stop ||
-           (impl_->queue.empty() && !impl_->busy && !impl_->global_ba_pending);
+    return impl_->stop || (impl_->queue.empty() && !impl_->busy && !impl_->global_ba_pending);
   });
 }
 

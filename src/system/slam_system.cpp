@@ -104,8 +104,7 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const SystemOptions& options)
     } else if (lo.enabled || lo.relocalize) {
       impl_->loop =
           std::make_unique<LoopCloser>(camera, lo, impl_->map.get(), options.mapping.threaded);
-      if (lo.enabled)
-        impl_->mapper->SetLoopCloser(impl_->loop.get(), lo);
+      if (lo.enabled) impl_->mapper->SetLoopCloser(impl_->loop.get(), lo);
     }
   }
 }

@@ -122,14 +122,13 @@ struct StereoTracker::Impl {
     auto t0 = Clock::now();
     std::vector<std::pair<int, int>> point_matches, line_matches;
     if (use_points) {
-      point_matches =
-          MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors, cur.points,
-                                  cur.point_descriptors, options.point_matching, prior);
+      point_matches = MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors, cur.points,
+                                              cur.point_descriptors, options.point_matching, prior);
       if (prior && static_cast<int>(point_matches.size()) < 2 * options.min_inliers) {
         // The prediction may be wrong (sudden motion change): search everywhere.
-        point_matches = MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors,
-                                                cur.points, cur.point_descriptors,
-                                                options.point_matching);
+        point_matches =
+            MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors, cur.points,
+                                    cur.point_descriptors, options.point_matching);
       }
     }
     if (use_lines) {
@@ -139,8 +138,8 @@ struct StereoTracker::Impl {
       line_matches = MatchLines(ref.lines, ref.line_descriptors, cur.lines, cur.line_descriptors,
                                 options.line_matching, prior ? &prediction : nullptr);
       if (prior && static_cast<int>(line_matches.size()) < options.min_inliers) {
-        line_matches = MatchLines(ref.lines, ref.line_descriptors, cur.lines,
-                                  cur.line_descriptors, options.line_matching);
+        line_matches = MatchLines(ref.lines, ref.line_descriptors, cur.lines, cur.line_descriptors,
+                                  options.line_matching);
       }
     }
     out.point_matches = static_cast<int>(point_matches.size());

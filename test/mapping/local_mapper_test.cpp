@@ -105,9 +105,9 @@ TEST(LocalMapperTest, MappingBeatsVisualOdometryAlone) {
   const RunOutcome chain = RunSystem(vo, 200, kFastTurn);
   const RunOutcome with = RunSystem(Sequential(), 200, kFastTurn);
   std::cout << "fast_turn 200 frames: ATE VO " << without.ate << " m (frame-to-frame only "
-            << chain.ate << " m), with mapping " << with.ate
-            << " m, " << with.counts.keyframes << " keyframes, " << with.counts.points
-            << " points, " << with.counts.lines << " lines, BA median "
+            << chain.ate << " m), with mapping " << with.ate << " m, " << with.counts.keyframes
+            << " keyframes, " << with.counts.points << " points, " << with.counts.lines
+            << " lines, BA median "
             << (with.stats.ba_ms.empty() ? 0.0 : with.stats.ba_ms[with.stats.ba_ms.size() / 2])
             << " ms\n";
   EXPECT_EQ(with.trajectory.size(), 200u);

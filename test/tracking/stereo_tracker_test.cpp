@@ -17,7 +17,7 @@ struct VoRun {
 };
 
 VoRun RunVo(const sim::SyntheticSequence& seq, const std::vector<StereoFrame>& frames,
-           const TrackerOptions& options) {
+            const TrackerOptions& options) {
   StereoTracker tracker(seq.camera(), options);
   VoRun run;
   Trajectory truth;

@@ -40,10 +40,10 @@ struct LoopClosingOptions {
   /// merges the result between keyframes; a newer loop aborts a running one). Sequential mode
   /// runs it in place.
   bool global_ba = true;
-  int global_ba_iterations = 10;  ///< its Levenberg-Marquardt iterations
-  KeyframeDatabaseOptions database;   ///< "database.*"
-  RelativePoseOptions verification;   ///< "verification.*"
-  PoseGraphOptions pose_graph;        ///< "pose_graph.*"
+  int global_ba_iterations = 10;     ///< its Levenberg-Marquardt iterations
+  KeyframeDatabaseOptions database;  ///< "database.*"
+  RelativePoseOptions verification;  ///< "verification.*"
+  PoseGraphOptions pose_graph;       ///< "pose_graph.*"
   /// Empty when valid, else "key=value must be ..." naming the first bad key.
   std::string Validate() const;
 };

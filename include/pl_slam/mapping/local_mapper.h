@@ -54,8 +54,8 @@ struct MappingOptions {
   /// Information of a line residual relative to a point's in local-map tracking, keyframe
   /// refinement and bundle adjustment (same default and reason as tracker.line_weight).
   double line_weight = 8.0;
-  bool track_local_map = true;      ///< tracking also matches the local map (bounded drift)
-  int track_min_inliers = 20;       ///< fewer local-map inliers: keep the frame-to-frame pose
+  bool track_local_map = true;  ///< tracking also matches the local map (bounded drift)
+  int track_min_inliers = 20;   ///< fewer local-map inliers: keep the frame-to-frame pose
   /// The local-map pose replaces the frame-to-frame one only with at least this many inliers
   /// per frame-to-frame inlier: a map seen through few features (low texture) gives a noisier
   /// pose than visual odometry's.
@@ -101,8 +101,8 @@ struct MappingStats {
   double last_keyframe_ms = 0.0;  ///< whole processing of the last keyframe
   std::vector<double> ba_ms;      ///< every local BA, for benchmarks
   std::vector<double> keyframe_ms;
-  int global_bas = 0;             ///< global bundle adjustments merged into the map
-  int global_bas_discarded = 0;   ///< aborted by a newer loop or a reset, or failed
+  int global_bas = 0;                ///< global bundle adjustments merged into the map
+  int global_bas_discarded = 0;      ///< aborted by a newer loop or a reset, or failed
   std::vector<double> global_ba_ms;  ///< solve time of each merged one
 };
 

@@ -47,12 +47,12 @@ struct TrackerOptions {
   double keyframe_min_inlier_ratio = 0.5;
   double keyframe_max_correction = 0.05;     ///< larger change (m) is refused as a mismatch
   double keyframe_max_correction_deg = 2.0;  ///< larger change (deg) is refused
-  PointDetectorOptions points;   ///< "points.*"
-  PointMatchingOptions point_matching;  ///< "point_matching.*"
-  LineDetectorOptions lines;            ///< "lines.*"
-  LineMatchingOptions line_matching;    ///< "line_matching.*"
-  MotionEstimatorOptions motion;        ///< "motion.*"
-  KeyframeSelectorOptions keyframes;    ///< "keyframes.*"
+  PointDetectorOptions points;               ///< "points.*"
+  PointMatchingOptions point_matching;       ///< "point_matching.*"
+  LineDetectorOptions lines;                 ///< "lines.*"
+  LineMatchingOptions line_matching;         ///< "line_matching.*"
+  MotionEstimatorOptions motion;             ///< "motion.*"
+  KeyframeSelectorOptions keyframes;         ///< "keyframes.*"
 
   /// Empty when valid, else "key=value must be ..." naming the first bad key (with prefix).
   std::string Validate() const;
@@ -71,12 +71,12 @@ struct TrackerResult {
   Matrix6d covariance_prev_cur = Matrix6d::Identity();  ///< of T_prev_cur, [rho; phi]
   bool is_keyframe = false;
   KeyframeReason keyframe_reason = KeyframeReason::kNone;
-  int points_detected = 0, lines_detected = 0;           ///< left image
-  int points_stereo = 0, lines_stereo = 0;               ///< with depth
-  int point_matches = 0, line_matches = 0;               ///< frame-to-frame
-  int point_inliers = 0, line_inliers = 0;               ///< kept by motion estimation
-  bool keyframe_refined = false;  ///< the pose comes from matching the last keyframe
-  std::string warning;                                   ///< why tracking failed, when it did
+  int points_detected = 0, lines_detected = 0;  ///< left image
+  int points_stereo = 0, lines_stereo = 0;      ///< with depth
+  int point_matches = 0, line_matches = 0;      ///< frame-to-frame
+  int point_inliers = 0, line_inliers = 0;      ///< kept by motion estimation
+  bool keyframe_refined = false;                ///< the pose comes from matching the last keyframe
+  std::string warning;                          ///< why tracking failed, when it did
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
 };
 
