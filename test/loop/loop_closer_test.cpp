@@ -2,7 +2,8 @@
 // ground truth: the room's revisit is detected and every accepted loop is a true revisit,
 // the global bundle adjustment after it lowers the error (sequential) and is merged before
 // Flush() returns (threaded), the corridor (no revisit) gives none, and tracking recovers
-// after 20 blank frames in the same map frame.
+// after 20 blank frames in the same map frame, and a camera that comes back from 20 blank
+// frames somewhere else in the mapped room is relocalised there.
 #include <gtest/gtest.h>
 
 #include "pl_slam/eval/evaluation.h"
@@ -147,6 +148,59 @@ TEST(LoopCloserTest, RelocalisesAfterBlankFramesInTheSameMap) {
   ASSERT_GE(recovered_at, blank_to);
   EXPECT_LE(recovered_at, blank_to + 5);
   EXPECT_LT(error_at_recovery, 0.05);
+}
+
+// The camera is "kidnapped": after tracking frames 0-159 the images go blank for 20 frames and
+// come back showing what frame 40 saw, 120 frames (~3 m, ~90 deg) away from the last tracked
+// view. Tracking from the last pose cannot recover this; relocalisation against the keyframe
+// database must, in the same map frame.
+TEST(LoopCloserTest, RelocalisesAKidnappedCameraInTheMappedArea) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kRoom;
+  sim::SyntheticSequence seq(so);
+  SlamSystem system(seq.camera(), Options());
+  const int tracked = 160, blanks = 20, resume_at = 40, resumed = 15;
+  const SE3 T_gt0_inv = seq.ground_truth()[0].T_w_c.inverse();
+  const int64_t period_ns = seq.Render(1).stamp_ns - seq.Render(0).stamp_ns;
+  int step = 0;
+  auto feed = [&](int sequence_frame, bool blank) {
+    StereoFrame f = seq.Render(sequence_frame);
+    f.index = step;
+    f.stamp_ns = seq.Render(0).stamp_ns + step * period_ns;
+    ++step;
+    if (blank) {
+      f.left.setTo(0);
+      f.right.setTo(0);
+    }
+    return system.Process(f);
+  };
+  for (int i = 0; i < tracked; ++i) ASSERT_TRUE(feed(i, false).pose_valid) << "frame " << i;
+  for (int i = 0; i < blanks; ++i) EXPECT_FALSE(feed(tracked, true).pose_valid);
+  const int relocalisations_before = system.loop_stats().relocalizations;
+  int recovered_after = -1;
+  double error_at_recovery = 0.0;
+  for (int k = 0; k < resumed; ++k) {
+    const int i = resume_at + k;
+    const FrameResult r = feed(i, false);
+    ASSERT_TRUE(r.T_w_c.IsFinite());
+    if (recovered_after < 0 && r.pose_valid) {
+      recovered_after = k;
+      const SE3 truth = T_gt0_inv * seq.ground_truth()[i].T_w_c;
+      error_at_recovery = (truth.translation() - r.T_w_c.translation()).norm();
+    }
+    if (r.pose_valid) {
+      // Once recovered, every pose is in the map's frame (no new map, no jump).
+      const SE3 truth = T_gt0_inv * seq.ground_truth()[i].T_w_c;
+      EXPECT_LT((truth.translation() - r.T_w_c.translation()).norm(), 0.05) << "frame " << i;
+    }
+  }
+  std::cout << "kidnapped camera recovered " << recovered_after
+            << " frames after the images returned, position error " << error_at_recovery
+            << " m, relocalisations " << system.loop_stats().relocalizations << "\n";
+  ASSERT_GE(recovered_after, 0) << "never recovered";
+  EXPECT_LE(recovered_after, 5);
+  EXPECT_LT(error_at_recovery, 0.05);
+  EXPECT_GE(system.loop_stats().relocalizations, relocalisations_before + 1);
 }
 
 }  // namespace
