@@ -51,6 +51,9 @@ constexpr char kUsage[] =
     "  --load-map FILE       start in a saved map (relocalises first; see --localization-only)\n"
     "  --localization-only   track in the map without adding keyframes\n"
     "  --save-map FILE       save the map at the end (atomic; versioned, checksummed)\n"
+    "  --doffs PX            the right principal point lies PX pixels right of the left one's,\n"
+    "                        replacing the calibration's value (measure it with\n"
+    "                        pl_slam_check_stereo when disparities look biased)\n"
     "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
     "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
 
@@ -238,7 +241,7 @@ int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(
       argc, argv,
       {"out", "max-frames", "left-topic", "right-topic", "left-info", "right-info", "gt-topic",
-       "config", "mode", "set", "memory-every", "watchdog", "load-map", "save-map"},
+       "config", "mode", "set", "memory-every", "watchdog", "load-map", "save-map", "doffs"},
       {"quiet", "help", "print-config", "realtime", "localization-only"});
   if (cl.Has("help")) {
     std::cout << kUsage;
@@ -287,10 +290,16 @@ int Run(int argc, char** argv) {
     source = pl_slam::OpenDatasetFolder(input);
   }
 
-  const pl_slam::StereoCamera& cam = source->camera();
+  pl_slam::StereoCamera cam = source->camera();
+  if (cl.Has("doffs")) {
+    cam.doffs = cl.GetDouble("doffs", 0.0);
+    const std::string err = cam.Validate();
+    if (!err.empty()) throw pl_slam::ConfigError("--doffs: " + err);
+  }
   std::cout << "pl_slam_offline: " << source->Describe() << ", " << source->size() << " frames, "
             << cam.width << "x" << cam.height << ", fx=" << cam.fx << " baseline=" << cam.baseline
-            << " m, mode " << pl_slam::FeatureModeName(options.tracker.mode) << "\n";
+            << " m" << (cam.doffs != 0.0 ? ", doffs=" + std::to_string(cam.doffs) + " px" : "")
+            << ", mode " << pl_slam::FeatureModeName(options.tracker.mode) << "\n";
   pl_slam::SlamSystem system(cam, options);
   if (cl.Has("load-map")) system.LoadMap(cl.Get("load-map", ""));
   if (cl.Has("localization-only")) system.SetLocalizationOnly(true);

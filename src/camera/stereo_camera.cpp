@@ -20,6 +20,8 @@ std::string StereoCamera::Validate() const {
     os << "cy=" << cy << " must lie in [0, " << height << "]";
   else if (bad(baseline) || baseline <= 0.0 || baseline > 10.0)
     os << "baseline=" << baseline << " m must lie in (0, 10]";
+  else if (bad(doffs) || std::abs(doffs) > 0.5 * width)
+    os << "doffs=" << doffs << " px must lie in [-width/2, width/2]";
   return os.str();
 }
 

@@ -80,9 +80,9 @@ StereoCamera ParseKittiCalibration(const std::string& content, const std::string
   auto same = [](double a, double b) {
     return std::abs(a - b) <= 1e-6 * std::max(1.0, std::abs(a));
   };
-  if (!same(p0[0], p1[0]) || !same(p0[5], p1[5]) || !same(p0[2], p1[2]) || !same(p0[6], p1[6])) {
+  if (!same(p0[0], p1[0]) || !same(p0[5], p1[5]) || !same(p0[6], p1[6])) {
     throw InputError(path +
-                     ": P0 and P1 have different focal lengths or principal points "
+                     ": P0 and P1 have different focal lengths or principal point rows "
                      "(expected a rectified pair)");
   }
   StereoCamera cam;
@@ -91,6 +91,7 @@ StereoCamera ParseKittiCalibration(const std::string& content, const std::string
   cam.fy = p0[5];
   cam.cy = p0[6];
   cam.baseline = -(p1[3] - p0[3]) / p1[0];
+  cam.doffs = p1[2] - p0[2];
   cam.width = width;
   cam.height = height;
   const std::string err = cam.Validate();

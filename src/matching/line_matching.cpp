@@ -171,8 +171,9 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
       if (shared < options.stereo_min_row_overlap * std::max(l_hi - l_lo, r_hi - r_lo)) continue;
       const double d_s = l.s.x() - ColumnAtRow(r.l, l.s.y());
       const double d_e = l.e.x() - ColumnAtRow(r.l, l.e.y());
-      if (d_s < options.min_disparity || d_e < options.min_disparity) continue;
-      if (d_s > options.max_disparity || d_e > options.max_disparity) continue;
+      const double t_s = camera.TrueDisparity(d_s), t_e = camera.TrueDisparity(d_e);
+      if (t_s < options.min_disparity || t_e < options.min_disparity) continue;
+      if (t_s > options.max_disparity || t_e > options.max_disparity) continue;
       // Disparity is linear along the image of a 3D segment; a steep change along it means
       // a segment running almost along the viewing rays, which is far more often a wrong
       // pairing than a real structure.

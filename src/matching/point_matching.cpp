@@ -137,7 +137,7 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
     for (int r = r0; r <= r1; ++r) {
       for (int j : by_row[r]) {
         const cv::KeyPoint& kr = right_kp[j];
-        const double d = kl.pt.x - kr.pt.x;
+        const double d = camera.TrueDisparity(kl.pt.x - kr.pt.x);
         if (d < options.min_disparity || d > options.max_disparity) continue;
         if (std::abs(kl.octave - kr.octave) > 1) continue;
         search.Offer(i, j, HammingDistance32(dl, right_desc.ptr<uint8_t>(j)), &best_dist_of_right,
@@ -157,7 +157,8 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
       RefineDisparity(left_image, right_image, pf.uv.x(), pf.uv.y(), &ur);
     }
     const double d = pf.uv.x() - ur;
-    if (d < options.min_disparity || d > options.max_disparity) continue;
+    const double d_true = camera.TrueDisparity(d);
+    if (d_true < options.min_disparity || d_true > options.max_disparity) continue;
     pf.has_depth = true;
     pf.disparity = d;
     pf.p_c = camera.BackProject(pf.uv.x(), pf.uv.y(), d);

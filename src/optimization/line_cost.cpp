@@ -41,9 +41,10 @@ bool LineCost<kResiduals>::Evaluate(double const* const* parameters, double* res
   for (int view = 0; view < views; ++view) {
     const Eigen::Vector3d& l = view == 0 ? l_ : l_right_;
     const double shift = view == 0 ? 0.0 : camera_.baseline;
+    const double cx = view == 0 ? camera_.cx : camera_.cx + camera_.doffs;
     for (int k = 0; k < 2; ++k) {
       const double iz = 1.0 / X[k].z();
-      const double u = fx * (X[k].x() - shift) * iz + camera_.cx;
+      const double u = fx * (X[k].x() - shift) * iz + cx;
       const double v = fy * X[k].y() * iz + camera_.cy;
       const int row = 2 * view + k;
       r(row) = sqrt_info_ * (l.x() * u + l.y() * v + l.z());

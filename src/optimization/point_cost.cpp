@@ -27,7 +27,8 @@ bool PointCost<kResiduals>::Evaluate(double const* const* parameters, double* re
   r(0) = sqrt_info_ * (fx * X.x() * iz + camera_.cx - uv_.x());
   r(1) = sqrt_info_ * (fy * X.y() * iz + camera_.cy - uv_.y());
   if constexpr (kResiduals == 3)
-    r(2) = sqrt_info_ * (fx * (X.x() - camera_.baseline) * iz + camera_.cx - u_right_);
+    r(2) =
+        sqrt_info_ * (fx * (X.x() - camera_.baseline) * iz + camera_.cx + camera_.doffs - u_right_);
   if (!jacobians) return true;
   // d(residual)/dX, X the point in the camera frame.
   Eigen::Matrix<double, kResiduals, 3> J_X;

@@ -72,9 +72,14 @@ StereoCamera StereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
        << right.height << " sizes differ";
     fail(os.str());
   }
+  // A rectified pair shares fx, fy and cy; the principal points' x may differ (stereoRectify
+  // without CALIB_ZERO_DISPARITY): that difference is the camera's doffs.
   if (std::abs(left.P[0] - right.P[0]) > 1e-3 * left.P[0] ||
-      std::abs(left.P[2] - right.P[2]) > 0.5 || std::abs(left.P[6] - right.P[6]) > 0.5) {
-    fail("left and right projection matrices differ: the pair is not rectified");
+      std::abs(left.P[5] - right.P[5]) > 1e-3 * left.P[5] ||
+      std::abs(left.P[6] - right.P[6]) > 0.5) {
+    fail(
+        "left and right projection matrices differ in focal length or cy: the pair is not "
+        "rectified");
   }
   StereoCamera cam;
   cam.fx = left.P[0];
@@ -82,6 +87,7 @@ StereoCamera StereoCameraFromInfo(const sensor_msgs::CameraInfo& left,
   cam.fy = left.P[5];
   cam.cy = left.P[6];
   cam.baseline = -right.P[3] / right.P[0];
+  cam.doffs = right.P[2] - left.P[2];
   cam.width = static_cast<int>(left.width);
   cam.height = static_cast<int>(left.height);
   const std::string err = cam.Validate();
@@ -102,7 +108,8 @@ void StereoCameraToInfo(const StereoCamera& camera, const std::string& left_fram
     info.K = {camera.fx, 0.0, camera.cx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 1.0};
     info.R = {1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0};
     const double tx = side == 0 ? 0.0 : -camera.fx * camera.baseline;
-    info.P = {camera.fx, 0.0, camera.cx, tx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 0.0, 1.0, 0.0};
+    const double cx = side == 0 ? camera.cx : camera.cx + camera.doffs;
+    info.P = {camera.fx, 0.0, cx, tx, 0.0, camera.fy, camera.cy, 0.0, 0.0, 0.0, 1.0, 0.0};
   }
 }
 

@@ -56,7 +56,8 @@ std::string NodeletOptions::Validate() const {
   else if (!use_camera_info && !camera.Validate().empty())
     os << "camera.*: " << camera.Validate()
        << " (use_camera_info is false, so camera.fx, camera.fy, camera.cx, camera.cy, "
-          "camera.baseline, camera.width and camera.height must describe the rectified pair)";
+          "camera.baseline, camera.doffs, camera.width and camera.height must describe the "
+          "rectified pair)";
   else
     os << system.Validate();
   return os.str();
@@ -142,6 +143,8 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
   table.Add("camera.cy", &o->camera.cy, "rectified principal point y, px (use_camera_info false)");
   table.Add("camera.baseline", &o->camera.baseline,
             "stereo baseline, m, right camera on the left's +x (use_camera_info false)");
+  table.Add("camera.doffs", &o->camera.doffs,
+            "right principal point x minus the left one's, px (use_camera_info false)");
   table.Add("camera.width", &o->camera.width, "image width, px (use_camera_info false)");
   table.Add("camera.height", &o->camera.height, "image height, px (use_camera_info false)");
   table.Add("input_warning_period", &o->input_warning_period,
@@ -482,7 +485,8 @@ namespace {
 bool SameCamera(const StereoCamera& a, const StereoCamera& b) {
   return a.width == b.width && a.height == b.height && std::abs(a.fx - b.fx) <= 1e-6 &&
          std::abs(a.fy - b.fy) <= 1e-6 && std::abs(a.cx - b.cx) <= 1e-6 &&
-         std::abs(a.cy - b.cy) <= 1e-6 && std::abs(a.baseline - b.baseline) <= 1e-9;
+         std::abs(a.cy - b.cy) <= 1e-6 && std::abs(a.baseline - b.baseline) <= 1e-9 &&
+         std::abs(a.doffs - b.doffs) <= 1e-6;
 }
 
 }  // namespace

@@ -30,6 +30,20 @@ TEST(StereoCamera, ProjectionAndBackProjectionAgree) {
   EXPECT_FALSE(c.InImage(Eigen::Vector2d(-1, 10)));
 }
 
+TEST(StereoCamera, APrincipalPointOffsetMovesTheRightImageOnly) {
+  StereoCamera c = Euroc();
+  c.doffs = 1.5;  // the right principal point 1.5 px right of the left one's
+  const Eigen::Vector3d p(0.4, -0.2, 3.0);
+  const Eigen::Vector2d l = c.Project(p), r = c.ProjectRight(p);
+  EXPECT_EQ(l, Euroc().Project(p));
+  EXPECT_NEAR(r.x() - Euroc().ProjectRight(p).x(), 1.5, 1e-12);
+  const double measured = l.x() - r.x();
+  EXPECT_NEAR(measured, c.DisparityFromDepth(3.0), 1e-12);
+  EXPECT_NEAR(c.TrueDisparity(measured), c.fx * c.baseline / 3.0, 1e-12);
+  EXPECT_NEAR(c.DepthFromDisparity(measured), 3.0, 1e-12);
+  EXPECT_LT((c.BackProject(l.x(), l.y(), measured) - p).norm(), 1e-12);
+}
+
 TEST(StereoCamera, ValidateNamesTheBadField) {
   EXPECT_EQ(Euroc().Validate(), "");
   StereoCamera c = Euroc();
@@ -44,6 +58,11 @@ TEST(StereoCamera, ValidateNamesTheBadField) {
   c = Euroc();
   c.cy = 900;
   EXPECT_NE(c.Validate().find("cy"), std::string::npos);
+  c = Euroc();
+  c.doffs = std::nan("");
+  EXPECT_NE(c.Validate().find("doffs"), std::string::npos);
+  c.doffs = 500;
+  EXPECT_NE(c.Validate().find("doffs"), std::string::npos);
 }
 
 }  // namespace

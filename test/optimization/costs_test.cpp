@@ -136,6 +136,32 @@ TEST(LineCostTest, JacobiansMatchCentralDifferences) {
   }
 }
 
+// With the right principal point offset (doffs), the right-image residuals of the exact
+// observations are zero: the costs project into the right image as the camera model does.
+TEST(StereoCostsTest, RightImageResidualsFollowThePrincipalPointOffset) {
+  StereoCamera cam = Camera();
+  cam.doffs = 2.5;
+  const Eigen::Vector3d P_c(0.3, -0.2, 2.5), Q_c(-0.4, 0.5, 3.5);
+  const std::vector<double> pose = PoseParams(SE3());
+  StereoPointCost point(cam, cam.Project(P_c), cam.ProjectRight(P_c).x(), 1.0);
+  std::vector<double> P = Vec(P_c);
+  const double* point_params[] = {pose.data(), P.data()};
+  double r[4];
+  ASSERT_TRUE(point.Evaluate(point_params, r, nullptr));
+  EXPECT_NEAR(std::abs(r[0]) + std::abs(r[1]) + std::abs(r[2]), 0.0, 1e-9);
+  StereoLineCost line(cam, LineThrough(cam.Project(P_c), cam.Project(Q_c)),
+                      LineThrough(cam.ProjectRight(P_c), cam.ProjectRight(Q_c)), 1.0);
+  std::vector<double> PQ = Vec(P_c);
+  for (double v : Vec(Q_c)) PQ.push_back(v);
+  const double* line_params[] = {pose.data(), PQ.data()};
+  ASSERT_TRUE(line.Evaluate(line_params, r, nullptr));
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(r[k], 0.0, 1e-9) << "row " << k;
+  // The same observations under a camera without the offset are 2.5 px off on the right.
+  StereoPointCost plain(Camera(), cam.Project(P_c), cam.ProjectRight(P_c).x(), 1.0);
+  ASSERT_TRUE(plain.Evaluate(point_params, r, nullptr));
+  EXPECT_NEAR(std::abs(r[2]), 2.5, 1e-9);
+}
+
 // The extent gauge of a line landmark: holds the endpoints along the line only.
 TEST(LineExtentCostTest, HoldsTheEndpointsAlongTheLineOnly) {
   const Eigen::Vector3d P0(0.2, -0.5, 3.0), Q0(0.4, 0.7, 3.5);

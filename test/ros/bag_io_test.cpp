@@ -198,6 +198,19 @@ TEST(Conversions, CameraInfoRoundTripAndValidation) {
   sensor_msgs::CameraInfo no_baseline = r;
   no_baseline.P[3] = 0.0;
   EXPECT_THROW(StereoCameraFromInfo(l, no_baseline), InputError);
+
+  // stereoRectify without CALIB_ZERO_DISPARITY: the right cx differs, which is the camera's
+  // doffs, and it survives the round trip.
+  sensor_msgs::CameraInfo offset = r;
+  offset.P[2] += 1.75;
+  const StereoCamera with_offset = StereoCameraFromInfo(l, offset);
+  EXPECT_DOUBLE_EQ(with_offset.doffs, 1.75);
+  sensor_msgs::CameraInfo l2, r2;
+  StereoCameraToInfo(with_offset, "cam0", "cam1", &l2, &r2);
+  EXPECT_DOUBLE_EQ(StereoCameraFromInfo(l2, r2).doffs, 1.75);
+  sensor_msgs::CameraInfo other_row = r;
+  other_row.P[6] += 2.0;  // a different cy: not a rectified pair
+  EXPECT_THROW(StereoCameraFromInfo(l, other_row), InputError);
 }
 
 TEST(Conversions, PoseMessageRoundTrip) {
