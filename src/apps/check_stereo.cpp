@@ -21,9 +21,9 @@ constexpr char kUsage[] =
     "  --max-frames N   frames read (default 300); the camera must move (not only rotate)\n"
     "                   through a scene with near and far points\n"
     "  --verbose        one line per pair of frames\n"
-    "Exit status: 0 the images agree with the calibration, 1 they imply a different doffs\n"
-    "(fix the calibration, or run pl_slam_offline with --doffs), 2 bad usage or not enough\n"
-    "usable pairs to tell.\n";
+    "Exit status: 0 the images agree with the calibration; 3 they imply a different doffs (fix\n"
+    "the calibration, or run pl_slam_offline with --doffs); 4 too few usable pairs to tell;\n"
+    "1 unreadable input; 2 bad usage.\n";
 
 // Pairs: each anchor frame with the frames this many later.
 constexpr int kGaps[] = {2, 4, 8, 16};
@@ -78,7 +78,7 @@ int Run(int argc, char** argv) {
   if (s.pairs < 5) {
     std::cout << "pl_slam_check_stereo: only " << s.pairs << " of " << tried
               << " pairs usable: cannot tell (needs translation through near and far points)\n";
-    return 2;
+    return 4;
   }
   std::cout << "pl_slam_check_stereo: " << s.pairs << " of " << tried
             << " pairs usable: the images imply doffs = " << s.doffs << " +- " << s.doffs_error
@@ -95,7 +95,7 @@ int Run(int argc, char** argv) {
             << 100.0 * std::abs(difference) / 10.0 << "% at 10 px of disparity). Fix the right "
             << "camera's principal point, or run pl_slam_offline with --doffs "
             << std::setprecision(2) << s.doffs << " (nodelet without camera_info: camera.doffs)\n";
-  return 1;
+  return 3;
 }
 
 }  // namespace
