@@ -161,12 +161,13 @@ TEST(LoopCloserTest, RelocalisesAKidnappedCameraInTheMappedArea) {
   SlamSystem system(seq.camera(), Options());
   const int tracked = 160, blanks = 20, resume_at = 40, resumed = 15;
   const SE3 T_gt0_inv = seq.ground_truth()[0].T_w_c.inverse();
-  const int64_t period_ns = seq.Render(1).stamp_ns - seq.Render(0).stamp_ns;
+  const int64_t start_ns = seq.Render(0).stamp_ns;
+  const int64_t period_ns = seq.Render(1).stamp_ns - start_ns;
   int step = 0;
   auto feed = [&](int sequence_frame, bool blank) {
     StereoFrame f = seq.Render(sequence_frame);
     f.index = step;
-    f.stamp_ns = seq.Render(0).stamp_ns + step * period_ns;
+    f.stamp_ns = start_ns + step * period_ns;
     ++step;
     if (blank) {
       f.left.setTo(0);
