@@ -54,7 +54,8 @@ constexpr char kUsage[] =
     "  --doffs PX            the right principal point lies PX pixels right of the left one's,\n"
     "                        replacing the calibration's value (measure it with\n"
     "                        pl_slam_check_stereo when disparities look biased)\n"
-    "outputs: DIR/trajectory.tum, DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
+    "outputs: DIR/trajectory.tum, DIR/keyframes.tum (with mapping: the final keyframe poses),\n"
+    "         DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
     "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
 
 double Percentile(std::vector<double> v, double q) {
@@ -352,6 +353,19 @@ int Run(int argc, char** argv) {
   const pl_slam::Trajectory traj = system.trajectory();
   const std::string traj_path = out_dir + "/trajectory.tum";
   pl_slam::WriteTrajectory(traj_path, traj, pl_slam::TrajectoryFormat::kTum);
+  std::string keyframes_path;
+  if (options.mapping.enabled) {
+    // The keyframes as the map holds them at the end (after the last bundle adjustment and
+    // loop correction), by time, like ORB-SLAM's KeyFrameTrajectory.txt.
+    const pl_slam::MapSnapshot snap = system.map().Snapshot();
+    pl_slam::Trajectory keyframes;
+    for (const auto& kf : snap.keyframes) keyframes.push_back({kf.stamp_s, kf.T_w_c});
+    std::sort(
+        keyframes.begin(), keyframes.end(),
+        [](const pl_slam::StampedPose& a, const pl_slam::StampedPose& b) { return a.t < b.t; });
+    keyframes_path = out_dir + "/keyframes.tum";
+    pl_slam::WriteTrajectory(keyframes_path, keyframes, pl_slam::TrajectoryFormat::kTum);
+  }
   const std::vector<double> totals = timing.Finish();
   if (!source->ground_truth().empty()) {
     pl_slam::WriteTrajectory(out_dir + "/groundtruth.tum", source->ground_truth(),
@@ -361,7 +375,7 @@ int Run(int argc, char** argv) {
             << traj.size() << ", without pose " << lost << "; tracking time median "
             << Percentile(totals, 0.5) << " ms, p95 " << Percentile(totals, 0.95) << " ms\n"
             << "wrote " << traj_path << ", " << out_dir << "/timing.csv, " << out_dir
-            << "/frames.txt"
+            << "/frames.txt" << (keyframes_path.empty() ? "" : ", " + keyframes_path)
             << (source->ground_truth().empty() ? "" : ", " + out_dir + "/groundtruth.tum") << "\n";
   if (options.mapping.enabled) {
     const pl_slam::MappingStats ms = system.mapping_stats();

@@ -1,6 +1,7 @@
 #include "pl_slam/features/point_features.h"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "pl_slam/util/error.h"
@@ -29,6 +30,22 @@ std::string PointDetectorOptions::Validate() const {
 PointDetector::PointDetector(const PointDetectorOptions& options) : options_(options) {
   const std::string err = options_.Validate();
   if (!err.empty()) throw ConfigError("points." + err);
+}
+
+cv::Point2f PyramidLevelToImage(cv::Point2f p, int level, cv::Size image_size, float scale_factor) {
+  // Level sizes as ORB computes them (float scale, rounded).
+  auto level_size = [&](int l) {
+    const float s = static_cast<float>(std::pow(static_cast<double>(scale_factor), l));
+    return cv::Size2d(cvRound(image_size.width / s), cvRound(image_size.height / s));
+  };
+  double x = p.x, y = p.y;
+  for (int l = level; l > 0; --l) {
+    // cv::resize maps destination pixel centre x to source (x + 0.5) * src/dst - 0.5.
+    const cv::Size2d dst = level_size(l), src = level_size(l - 1);
+    x = (x + 0.5) * src.width / dst.width - 0.5;
+    y = (y + 0.5) * src.height / dst.height - 0.5;
+  }
+  return cv::Point2f(static_cast<float>(x), static_cast<float>(y));
 }
 
 std::vector<cv::KeyPoint> BucketKeypoints(const std::vector<cv::KeyPoint>& keypoints,
@@ -95,6 +112,13 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
                                options_.max_points);
   // Descriptors only for the kept keypoints (ORB may drop a few near the border).
   orb->compute(image, *keypoints, *descriptors);
+  // Descriptors are computed; now move the keypoints to where they are in the image.
+  const float sf = static_cast<float>(options_.scale_factor);
+  for (cv::KeyPoint& kp : *keypoints) {
+    if (kp.octave <= 0) continue;
+    const float s = static_cast<float>(std::pow(static_cast<double>(sf), kp.octave));
+    kp.pt = PyramidLevelToImage(kp.pt / s, kp.octave, image.size(), sf);
+  }
 }
 
 }  // namespace pl_slam

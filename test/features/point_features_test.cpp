@@ -1,3 +1,6 @@
+#include <algorithm>
+#include <cmath>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -56,6 +59,82 @@ TEST(PointDetector, EmptyAndUniformImagesGiveNothing) {
   det.Detect(cv::Mat(480, 752, CV_8UC1, cv::Scalar(77)), &kp, &desc);
   EXPECT_TRUE(kp.empty());
   EXPECT_TRUE(desc.empty());
+}
+
+// Builds OpenCV ORB's pyramid the way ORB does (each level resized from the one before to the
+// rounded size) and finds a blurred blob in each level: its level position mapped back must
+// land where the blob is in the full image. Scaling by s^level alone (what ORB reports) is off
+// by 0.1-0.7 px, so this fails without the half-pixel and rounding terms.
+TEST(PointDetector, PyramidLevelPositionsMapBackToTheImage) {
+  const cv::Size size(752, 480);
+  const float sf = 1.2f;
+  double worst_naive = 0.0;
+  for (const cv::Point2d blob :
+       {cv::Point2d(100.3, 110.2), cv::Point2d(400.0, 260.0), cv::Point2d(700.7, 410.4)}) {
+    cv::Mat img(size, CV_32F);
+    for (int y = 0; y < size.height; ++y)
+      for (int x = 0; x < size.width; ++x) {
+        const double d2 = (x - blob.x) * (x - blob.x) + (y - blob.y) * (y - blob.y);
+        img.at<float>(y, x) = static_cast<float>(std::exp(-d2 / (2.0 * 6.0 * 6.0)));
+      }
+    cv::Mat level_img = img;
+    for (int level = 1; level < 4; ++level) {
+      const float s = static_cast<float>(std::pow(static_cast<double>(sf), level));
+      cv::Mat next;
+      cv::resize(level_img, next, cv::Size(cvRound(size.width / s), cvRound(size.height / s)), 0, 0,
+                 cv::INTER_LINEAR);
+      level_img = next;
+      double sx = 0.0, sy = 0.0, sw = 0.0;
+      for (int y = 0; y < level_img.rows; ++y)
+        for (int x = 0; x < level_img.cols; ++x) {
+          const double w = level_img.at<float>(y, x) > 0.05f ? level_img.at<float>(y, x) : 0.0;
+          sx += w * x;
+          sy += w * y;
+          sw += w;
+        }
+      const cv::Point2f in_level(static_cast<float>(sx / sw), static_cast<float>(sy / sw));
+      const cv::Point2f mapped = PyramidLevelToImage(in_level, level, size, sf);
+      EXPECT_NEAR(mapped.x, blob.x, 0.05) << "level " << level;
+      EXPECT_NEAR(mapped.y, blob.y, 0.05) << "level " << level;
+      const cv::Point2f naive = in_level * s;
+      worst_naive = std::max({worst_naive, std::abs(naive.x - blob.x), std::abs(naive.y - blob.y)});
+    }
+  }
+  EXPECT_GT(worst_naive, 0.3);  // the error the mapping removes
+  EXPECT_EQ(PyramidLevelToImage(cv::Point2f(12.25f, 7.5f), 0, size, sf), cv::Point2f(12.25f, 7.5f));
+}
+
+// FAST finds corners on whole pixels of a pyramid level, so every keypoint the detector reports
+// must map back (level by level, inverting cv::resize's centre alignment) onto whole pixels.
+TEST(PointDetector, ReportsUpperLevelKeypointsAtTheirImagePositions) {
+  cv::Mat blocks(60, 94, CV_8UC1), img;
+  cv::RNG rng(3);
+  rng.fill(blocks, cv::RNG::UNIFORM, 0, 256);
+  cv::resize(blocks, img, cv::Size(752, 480), 0, 0, cv::INTER_NEAREST);
+  cv::GaussianBlur(img, img, cv::Size(3, 3), 0.8);
+  PointDetectorOptions opt;
+  PointDetector det(opt);
+  std::vector<cv::KeyPoint> kp;
+  cv::Mat desc;
+  det.Detect(img, &kp, &desc);
+  const float sf = static_cast<float>(opt.scale_factor);
+  auto level_size = [&](int l) {
+    const float s = static_cast<float>(std::pow(static_cast<double>(sf), l));
+    return cv::Size2d(cvRound(img.cols / s), cvRound(img.rows / s));
+  };
+  int upper = 0;
+  for (const cv::KeyPoint& k : kp) {
+    if (k.octave <= 0) continue;
+    ++upper;
+    double x = k.pt.x, y = k.pt.y;
+    for (int l = 1; l <= k.octave; ++l) {
+      x = (x + 0.5) * level_size(l).width / level_size(l - 1).width - 0.5;
+      y = (y + 0.5) * level_size(l).height / level_size(l - 1).height - 0.5;
+    }
+    EXPECT_NEAR(x, std::round(x), 2e-3) << "octave " << k.octave << " at " << k.pt;
+    EXPECT_NEAR(y, std::round(y), 2e-3) << "octave " << k.octave << " at " << k.pt;
+  }
+  EXPECT_GT(upper, 50);
 }
 
 TEST(PointDetector, OptionsValidationNamesTheKey) {

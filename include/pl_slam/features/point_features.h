@@ -46,6 +46,13 @@ class PointDetector {
   PointDetectorOptions options_;
 };
 
+/// Where pixel `p` of OpenCV ORB's pyramid level `level` lies in the full image. ORB builds
+/// level l by resizing level l-1 to round(size / s^l) with pixel centres aligned, but reports a
+/// keypoint as its level coordinates times s^l. That ignores the half-pixel centre shift and
+/// the rounded level sizes: for s = 1.2 the reported position is off by 0.1 px at level 1 and
+/// by ~0.4 px at level 3, the same way in the left and right images. Level 0 is returned as is.
+cv::Point2f PyramidLevelToImage(cv::Point2f p, int level, cv::Size image_size, float scale_factor);
+
 /// Keeps the strongest keypoints of each grid cell so that texture clusters cannot take all
 /// of `max_keep`: per-cell quota first, then the leftover budget by global response.
 std::vector<cv::KeyPoint> BucketKeypoints(const std::vector<cv::KeyPoint>& keypoints,
