@@ -77,6 +77,10 @@ bool BuildBaWindowLocked(const Context& ctx, const std::vector<KeyframeId>& free
     problem.poses[oldest - w.pose_ids.begin()].fixed = true;
   }
   const bool stereo = ctx.options.stereo_residuals;
+  // Far points: left image only (see MappingOptions::stereo_max_depth_baselines).
+  const double min_true_disparity = ctx.options.stereo_max_depth_baselines > 0.0
+                                        ? ctx.camera.fx / ctx.options.stereo_max_depth_baselines
+                                        : 0.0;
   for (size_t i = 0; i < w.point_ids.size(); ++i) {
     const auto p = map.PointLocked(w.point_ids[i]);
     for (const auto& [k, index] : p->observations) {
@@ -87,7 +91,8 @@ bool BuildBaWindowLocked(const Context& ctx, const std::vector<KeyframeId>& free
       o.pose = it->second;
       o.point = static_cast<int>(i);
       o.uv = f.uv;
-      o.stereo = stereo && f.has_depth;
+      o.stereo =
+          stereo && f.has_depth && ctx.camera.TrueDisparity(f.disparity) >= min_true_disparity;
       o.u_right = f.uv.x() - f.disparity;
       o.sqrt_info = PointSqrtInfo(ctx, f.octave);
       problem.point_obs.push_back(o);

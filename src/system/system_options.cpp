@@ -173,6 +173,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "other keyframes that count as enough");
   t.Add("mapping.stereo_residuals", &mp.stereo_residuals,
         "bundle adjustment also uses the right image of stereo observations");
+  t.Add("mapping.stereo_max_depth_baselines", &mp.stereo_max_depth_baselines,
+        "points farther than this many baselines: left image only in bundle adjustment (0 = no "
+        "limit)");
   t.Add("mapping.line_weight", &mp.line_weight,
         "information of a line residual relative to a point's in mapping");
   t.Add("mapping.fuse_duplicates", &mp.fuse_duplicates,

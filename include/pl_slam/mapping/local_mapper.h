@@ -51,6 +51,12 @@ struct MappingOptions {
   double redundant_ratio = 0.9;  ///< redundant: this share of its landmarks seen by enough others
   int redundant_min_observers = 3;  ///< "enough others"
   bool stereo_residuals = true;     ///< BA also uses the right image of stereo observations
+  /// Stereo observations of points farther than this many baselines use the left image only
+  /// in bundle adjustment (0: no limit). Their disparity is a few pixels, so a small stereo
+  /// calibration error (a tenth of a pixel of principal-point offset) is a large depth error
+  /// that bundle adjustment would spread into the keyframe poses; their bearing stays exact.
+  /// 40 as in ORB-SLAM2's close/far split.
+  double stereo_max_depth_baselines = 40.0;
   /// Information of a line residual relative to a point's in local-map tracking, keyframe
   /// refinement and bundle adjustment (same default and reason as tracker.line_weight).
   double line_weight = 8.0;
