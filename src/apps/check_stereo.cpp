@@ -3,7 +3,6 @@
 // disparities must be those depths' inverses up to scale too, and any constant offset between
 // them is a principal-point error of the rectified pair (the camera's doffs). Prints the
 // offset the images imply next to the calibration's, and the --doffs value to run with.
-#include <deque>
 #include <iomanip>
 #include <iostream>
 #include <vector>
@@ -25,9 +24,6 @@ constexpr char kUsage[] =
     "the calibration, or run pl_slam_offline with --doffs); 4 too few usable pairs to tell;\n"
     "1 unreadable input; 2 bad usage.\n";
 
-// Pairs: each anchor frame with the frames this many later.
-constexpr int kGaps[] = {2, 4, 8, 16};
-
 int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(argc, argv, {"max-frames"}, {"verbose", "help"});
   if (cl.Has("help")) {
@@ -38,29 +34,14 @@ int Run(int argc, char** argv) {
   const int max_frames = cl.GetInt("max-frames", 300);
   if (max_frames < 3) throw pl_slam::ConfigError("--max-frames must be >= 3");
   auto source = pl_slam::OpenDatasetFolder(cl.positional()[0]);
-  const pl_slam::StereoCamera& cam = source->camera();
+  const pl_slam::StereoCamera cam = source->camera();
   const int frames = static_cast<int>(std::min<size_t>(source->size(), max_frames));
-  // About 40 anchor frames spread over the frames read.
-  const int stride = std::max(1, frames / 40);
   std::cout << "pl_slam_check_stereo: " << source->Describe() << ", " << frames
-            << " frames, anchors every " << stride << "\n";
-
-  std::deque<pl_slam::StereoFrame> window;  // the last kGaps[-1] + 1 frames
-  std::vector<pl_slam::StereoPairCheck> checks;
-  int tried = 0;
-  pl_slam::StereoFrame f;
-  for (int i = 0; i < frames && source->Next(&f); ++i) {
-    window.push_back(f);
-    if (static_cast<int>(window.size()) > kGaps[3] + 1) window.pop_front();
-    // Frame i closes the pairs whose anchor lies `gap` frames back.
-    for (int gap : kGaps) {
-      const int anchor = i - gap;
-      if (anchor < 0 || anchor % stride != 0) continue;
-      const pl_slam::StereoFrame& a = window[window.size() - 1 - gap];
-      const pl_slam::StereoPairCheck c =
-          pl_slam::CheckStereoPair(cam, a.left, a.right, f.left, f.right);
-      ++tried;
-      if (cl.Has("verbose")) {
+            << " frames, anchors every " << std::max(1, frames / 40) << "\n";
+  const bool verbose = cl.Has("verbose");
+  const pl_slam::StereoOffsetMeasurement m = pl_slam::MeasureStereoOffset(
+      source.get(), max_frames, [&](int anchor, int i, const pl_slam::StereoPairCheck& c) {
+        if (!verbose) return;
         std::cout << "  frames " << anchor << " -> " << i << ": ";
         if (c.usable)
           std::cout << std::fixed << std::setprecision(2) << "doffs " << c.doffs << " +- "
@@ -69,13 +50,11 @@ int Run(int argc, char** argv) {
                     << c.translation << " m, " << c.rotation_deg << " deg\n";
         else
           std::cout << "not usable: " << c.reason << "\n";
-      }
-      checks.push_back(c);
-    }
-  }
-  const pl_slam::StereoCheckSummary s = pl_slam::SummariseStereoChecks(checks);
+      });
+  const int tried = m.tried;
+  const pl_slam::StereoCheckSummary& s = m.summary;
   std::cout << std::fixed << std::setprecision(2);
-  if (s.pairs < 5) {
+  if (!m.conclusive()) {
     std::cout << "pl_slam_check_stereo: only " << s.pairs << " of " << tried
               << " pairs usable: cannot tell (needs translation through near and far points)\n";
     return 4;

@@ -18,6 +18,7 @@
 #include <map>
 #include <sstream>
 
+#include "pl_slam/camera/stereo_check.h"
 #include "pl_slam/io/stereo_source.h"
 #include "pl_slam/io/trajectory.h"
 #include "pl_slam/ros/bag_io.h"
@@ -51,9 +52,11 @@ constexpr char kUsage[] =
     "  --load-map FILE       start in a saved map (relocalises first; see --localization-only)\n"
     "  --localization-only   track in the map without adding keyframes\n"
     "  --save-map FILE       save the map at the end (atomic; versioned, checksummed)\n"
-    "  --doffs PX            the right principal point lies PX pixels right of the left one's,\n"
+    "  --doffs PX|auto       the right principal point lies PX pixels right of the left one's,\n"
     "                        replacing the calibration's value (measure it with\n"
-    "                        pl_slam_check_stereo when disparities look biased)\n"
+    "                        pl_slam_check_stereo when disparities look biased); auto:\n"
+    "                        measure it first (a pass over up to 300 frames, as that tool\n"
+    "                        does) and use it only when it clearly differs\n"
     "outputs: DIR/trajectory.tum, DIR/keyframes.tum (with mapping: the final keyframe poses),\n"
     "         DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
     "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
@@ -277,22 +280,42 @@ int Run(int argc, char** argv) {
   const int max_frames = cl.GetInt("max-frames", -1);
   if (cl.Has("quiet")) pl_slam::SetLogLevel(pl_slam::LogLevel::kWarn);
 
-  std::unique_ptr<pl_slam::StereoSource> source;
-  if (std::filesystem::is_regular_file(input) ||
-      (input.size() > 4 && input.substr(input.size() - 4) == ".bag")) {
-    pl_slam::ros_layer::BagTopics topics;
-    topics.left_image = cl.Get("left-topic", topics.left_image);
-    topics.right_image = cl.Get("right-topic", topics.right_image);
-    topics.left_info = cl.Get("left-info", topics.left_info);
-    topics.right_info = cl.Get("right-info", topics.right_info);
-    topics.ground_truth = cl.Get("gt-topic", topics.ground_truth);
-    source = std::make_unique<pl_slam::ros_layer::BagStereoSource>(input, topics);
-  } else {
-    source = pl_slam::OpenDatasetFolder(input);
-  }
+  auto open_source = [&]() -> std::unique_ptr<pl_slam::StereoSource> {
+    if (std::filesystem::is_regular_file(input) ||
+        (input.size() > 4 && input.substr(input.size() - 4) == ".bag")) {
+      pl_slam::ros_layer::BagTopics topics;
+      topics.left_image = cl.Get("left-topic", topics.left_image);
+      topics.right_image = cl.Get("right-topic", topics.right_image);
+      topics.left_info = cl.Get("left-info", topics.left_info);
+      topics.right_info = cl.Get("right-info", topics.right_info);
+      topics.ground_truth = cl.Get("gt-topic", topics.ground_truth);
+      return std::make_unique<pl_slam::ros_layer::BagStereoSource>(input, topics);
+    }
+    return pl_slam::OpenDatasetFolder(input);
+  };
+  std::unique_ptr<pl_slam::StereoSource> source = open_source();
 
   pl_slam::StereoCamera cam = source->camera();
-  if (cl.Has("doffs")) {
+  if (cl.Has("doffs") && cl.Get("doffs", "") == "auto") {
+    // A first pass over (at most 300 of) the frames, as pl_slam_check_stereo does; the offset
+    // is used only when the images clearly imply one, else the calibration's stays.
+    const pl_slam::StereoOffsetMeasurement m = pl_slam::MeasureStereoOffset(source.get(), 300);
+    std::ostringstream what;
+    what << std::fixed << std::setprecision(2);
+    if (!m.conclusive()) {
+      what << "only " << m.summary.pairs << " of " << m.tried
+           << " frame pairs usable, keeping the calibration's " << cam.doffs << " px";
+    } else if (!pl_slam::StereoOffsetDiffers(m.summary, cam.doffs)) {
+      what << "the images imply " << m.summary.doffs << " +- " << m.summary.doffs_error
+           << " px, consistent with the calibration's " << cam.doffs << " px: kept";
+    } else {
+      what << "the images imply " << m.summary.doffs << " +- " << m.summary.doffs_error
+           << " px against the calibration's " << cam.doffs << " px: using " << m.summary.doffs;
+      cam.doffs = m.summary.doffs;
+    }
+    std::cout << "pl_slam_offline: --doffs auto: " << what.str() << "\n";
+    source = open_source();  // from the first frame again
+  } else if (cl.Has("doffs")) {
     cam.doffs = cl.GetDouble("doffs", 0.0);
     const std::string err = cam.Validate();
     if (!err.empty()) throw pl_slam::ConfigError("--doffs: " + err);

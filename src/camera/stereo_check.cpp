@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <deque>
 #include <Eigen/Dense>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
@@ -263,6 +264,35 @@ StereoCheckSummary SummariseStereoChecks(const std::vector<StereoPairCheck>& che
 bool StereoOffsetDiffers(const StereoCheckSummary& summary, double calibrated) {
   return summary.pairs > 0 &&
          std::abs(summary.doffs - calibrated) > std::max(0.3, 3.0 * summary.doffs_error);
+}
+
+StereoOffsetMeasurement MeasureStereoOffset(
+    StereoSource* source, int max_frames,
+    const std::function<void(int, int, const StereoPairCheck&)>& on_pair) {
+  constexpr int kGaps[] = {2, 4, 8, 16};
+  StereoOffsetMeasurement m;
+  const StereoCamera& cam = source->camera();
+  const int frames = static_cast<int>(std::min<size_t>(source->size(), std::max(0, max_frames)));
+  const int stride = std::max(1, frames / 40);
+  std::deque<StereoFrame> window;  // the last kGaps[3] + 1 frames
+  std::vector<StereoPairCheck> checks;
+  StereoFrame f;
+  for (int i = 0; i < frames && source->Next(&f); ++i) {
+    ++m.frames;
+    window.push_back(f);
+    if (static_cast<int>(window.size()) > kGaps[3] + 1) window.pop_front();
+    // Frame i closes the pairs whose anchor lies `gap` frames back.
+    for (int gap : kGaps) {
+      const int anchor = i - gap;
+      if (anchor < 0 || anchor % stride != 0) continue;
+      const StereoFrame& a = window[window.size() - 1 - gap];
+      checks.push_back(CheckStereoPair(cam, a.left, a.right, f.left, f.right));
+      ++m.tried;
+      if (on_pair) on_pair(anchor, i, checks.back());
+    }
+  }
+  m.summary = SummariseStereoChecks(checks);
+  return m;
 }
 
 }  // namespace pl_slam

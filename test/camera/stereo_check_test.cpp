@@ -1,6 +1,8 @@
 // The stereo calibration self-check on rendered frames with an exact calibration: it finds
 // no offset where there is none, finds a known one where the right images are shifted, and
 // refuses pairs that cannot tell (no translation, bad images) with a reason.
+#include <memory>
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -46,6 +48,50 @@ TEST(StereoCheckTest, FindsNoOffsetInAnExactCalibrationAndAKnownOneInAShiftedPai
   EXPECT_FALSE(StereoOffsetDiffers(exact, 0.0));
   EXPECT_TRUE(StereoOffsetDiffers(shifted, 0.0));
   EXPECT_FALSE(StereoOffsetDiffers(shifted, 1.0));
+}
+
+/// A recording whose right images are shifted `px` pixels to the right.
+class ShiftedRightSource : public StereoSource {
+ public:
+  ShiftedRightSource(std::unique_ptr<StereoSource> inner, double px)
+      : inner_(std::move(inner)), px_(px) {}
+  const StereoCamera& camera() const override { return inner_->camera(); }
+  std::size_t size() const override { return inner_->size(); }
+  bool Next(StereoFrame* frame) override {
+    if (!inner_->Next(frame)) return false;
+    frame->right = ShiftRight(frame->right, px_);
+    return true;
+  }
+  const Trajectory& ground_truth() const override { return inner_->ground_truth(); }
+  std::string Describe() const override { return inner_->Describe() + ", right shifted"; }
+
+ private:
+  std::unique_ptr<StereoSource> inner_;
+  double px_;
+};
+
+// The whole-recording pass (pl_slam_check_stereo, pl_slam_offline --doffs auto): 80 frames of
+// the room with the right images shifted by 1 px give 40 anchors x 4 gaps, and the offset.
+TEST(StereoCheckTest, MeasuresARecordingsOffsetOverSpreadAnchors) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kRoom;
+  ShiftedRightSource source(std::make_unique<sim::SyntheticSequence>(so), 1.0);
+  int seen = 0, last_frame = -1;
+  const StereoOffsetMeasurement m =
+      MeasureStereoOffset(&source, 80, [&](int anchor, int frame, const StereoPairCheck&) {
+        ++seen;
+        EXPECT_EQ(anchor % 2, 0) << "anchors every 2 frames for 80 frames";
+        EXPECT_GE(frame, last_frame);
+        last_frame = frame;
+      });
+  std::cout << m.summary.pairs << " of " << m.tried << " pairs usable over " << m.frames
+            << " frames: doffs " << m.summary.doffs << " +- " << m.summary.doffs_error << " px\n";
+  EXPECT_EQ(m.frames, 80);
+  EXPECT_EQ(m.tried, seen);
+  EXPECT_GT(m.tried, 120);
+  ASSERT_TRUE(m.conclusive());
+  EXPECT_NEAR(m.summary.doffs, 1.0, 0.15);
+  EXPECT_TRUE(StereoOffsetDiffers(m.summary, 0.0));
 }
 
 TEST(StereoCheckTest, RefusesPairsThatCannotTell) {

@@ -11,10 +11,12 @@
 // translation scale error that grows with the scene's depth (far scenes, small baselines).
 #pragma once
 #include <opencv2/core.hpp>
+#include <functional>
 #include <string>
 #include <vector>
 
 #include "pl_slam/camera/stereo_camera.h"
+#include "pl_slam/io/stereo_source.h"
 
 namespace pl_slam {
 
@@ -67,5 +69,19 @@ StereoCheckSummary SummariseStereoChecks(const std::vector<StereoPairCheck>& che
 /// True when the images' doffs differs from `calibrated` by more than three standard errors
 /// of the median and by more than 0.3 px.
 bool StereoOffsetDiffers(const StereoCheckSummary& summary, double calibrated);
+
+/// A recording's check: about 40 anchor frames spread over its first `max_frames` frames, each
+/// paired with the frames 2, 4, 8 and 16 later (CheckStereoPair on each, against the source's
+/// camera). `on_pair(anchor, frame, check)`, when given, sees every pair as it is checked.
+struct StereoOffsetMeasurement {
+  StereoCheckSummary summary;
+  int tried = 0;   ///< pairs checked
+  int frames = 0;  ///< frames read
+  /// Enough usable pairs (5) for the summary to say anything.
+  bool conclusive() const { return summary.pairs >= 5; }
+};
+StereoOffsetMeasurement MeasureStereoOffset(
+    StereoSource* source, int max_frames,
+    const std::function<void(int, int, const StereoPairCheck&)>& on_pair = {});
 
 }  // namespace pl_slam
