@@ -18,6 +18,7 @@ namespace pl_slam {
 
 std::string BundleAdjustmentOptions::Validate() const {
   std::string e = CheckRange("max_iterations", max_iterations, 1, 1000);
+  if (e.empty()) e = CheckRange("outlier_sigma", outlier_sigma, 0.0, 100.0, true);
   if (e.empty()) e = CheckRange("point_chi2_mono", point_chi2_mono, 0.0, 1e6, true);
   if (e.empty()) e = CheckRange("point_chi2_stereo", point_chi2_stereo, 0.0, 1e6, true);
   if (e.empty()) e = CheckRange("line_chi2_mono", line_chi2_mono, 0.0, 1e6, true);
@@ -132,6 +133,10 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   std::vector<char> pose_used(np, 0);
 
+  // Whitened residuals are in pixels at octave 0 (sqrt_info = 1 / scale^octave). The Huber
+  // thresholds are the chi2 quantiles at 1 px; the outlier gates are the same quantiles in
+  // units of outlier_sigma.
+  const double sigma2 = options.outlier_sigma * options.outlier_sigma;
   const double huber_point_mono = std::sqrt(options.point_chi2_mono);
   const double huber_point_stereo = std::sqrt(options.point_chi2_stereo);
   const double huber_line_mono = std::sqrt(options.line_chi2_mono);
@@ -215,7 +220,8 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
       const Evaluation ev =
           EvaluatePoint(camera, SE3FromParams(pose_params[o.pose].data()),
                         Eigen::Map<const Eigen::Vector3d>(point_params + 3 * o.point), o);
-      const double chi2_max = o.stereo ? options.point_chi2_stereo : options.point_chi2_mono;
+      const double chi2_max =
+          (o.stereo ? options.point_chi2_stereo : options.point_chi2_mono) * sigma2;
       summary.point_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
     }
     for (size_t k = 0; k < p.line_obs.size(); ++k) {
@@ -225,7 +231,8 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
           EvaluateLine(camera, SE3FromParams(pose_params[o.pose].data()),
                        Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line),
                        Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line + 3), o);
-      const double chi2_max = o.stereo ? options.line_chi2_stereo : options.line_chi2_mono;
+      const double chi2_max =
+          (o.stereo ? options.line_chi2_stereo : options.line_chi2_mono) * sigma2;
       summary.line_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
     }
     summary.point_outliers =

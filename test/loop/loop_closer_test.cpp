@@ -79,7 +79,7 @@ TEST(LoopCloserTest, RoomRevisitIsDetectedAndEveryLoopIsTrue) {
   }
 }
 
-TEST(LoopCloserTest, GlobalBundleAdjustmentFollowsEveryCorrectionAndLowersTheError) {
+TEST(LoopCloserTest, GlobalBundleAdjustmentFollowsEveryCorrectionAndTheLoopLowersTheError) {
   const Outcome& with = Room();
   ASSERT_GE(with.loops.loops_corrected, 1);
   // Sequential: each correction's global BA runs in place and is merged.
@@ -90,9 +90,16 @@ TEST(LoopCloserTest, GlobalBundleAdjustmentFollowsEveryCorrectionAndLowersTheErr
   const Outcome without = RunScene(sim::SceneKind::kRoom, 480, options);
   EXPECT_EQ(without.mapping.global_bas, 0);
   EXPECT_EQ(without.loops.loops_corrected, with.loops.loops_corrected);
-  std::cout << "room ATE: pose graph only " << without.ate * 1000 << " mm, with global BA "
-            << with.ate * 1000 << " mm\n";
-  EXPECT_LT(with.ate, without.ate);
+  options = Options();
+  options.loop.enabled = false;
+  const Outcome no_loop = RunScene(sim::SceneKind::kRoom, 480, options);
+  std::cout << "room ATE: no loop closing " << no_loop.ate * 1000 << " mm, pose graph only "
+            << without.ate * 1000 << " mm, with global BA " << with.ate * 1000 << " mm\n";
+  // The loop correction lowers the error with and without the global BA. On this one lap the
+  // pose graph alone ends closer to the truth than the global BA's optimum (docs/BENCHMARKS.md,
+  // eighth session); over three laps the global BA is the better of the two.
+  EXPECT_LT(with.ate, no_loop.ate);
+  EXPECT_LT(without.ate, no_loop.ate);
 }
 
 TEST(LoopCloserTest, ThreadedGlobalBundleAdjustmentIsMergedBeforeFlushReturns) {
