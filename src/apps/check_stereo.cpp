@@ -37,7 +37,7 @@ int Run(int argc, char** argv) {
   const pl_slam::StereoCamera cam = source->camera();
   const int frames = static_cast<int>(std::min<size_t>(source->size(), max_frames));
   std::cout << "pl_slam_check_stereo: " << source->Describe() << ", " << frames
-            << " frames, anchors every " << std::max(1, frames / 40) << "\n";
+            << " frames, anchors every " << pl_slam::StereoOffsetAnchorStride(frames) << "\n";
   const bool verbose = cl.Has("verbose");
   const pl_slam::StereoOffsetMeasurement m = pl_slam::MeasureStereoOffset(
       source.get(), max_frames, [&](int anchor, int i, const pl_slam::StereoPairCheck& c) {

@@ -266,6 +266,8 @@ bool StereoOffsetDiffers(const StereoCheckSummary& summary, double calibrated) {
          std::abs(summary.doffs - calibrated) > std::max(0.3, 3.0 * summary.doffs_error);
 }
 
+int StereoOffsetAnchorStride(int frames) { return std::max(1, frames / 40); }
+
 StereoOffsetMeasurement MeasureStereoOffset(
     StereoSource* source, int max_frames,
     const std::function<void(int, int, const StereoPairCheck&)>& on_pair) {
@@ -273,7 +275,7 @@ StereoOffsetMeasurement MeasureStereoOffset(
   StereoOffsetMeasurement m;
   const StereoCamera& cam = source->camera();
   const int frames = static_cast<int>(std::min<size_t>(source->size(), std::max(0, max_frames)));
-  const int stride = std::max(1, frames / 40);
+  const int stride = StereoOffsetAnchorStride(frames);
   std::deque<StereoFrame> window;  // the last kGaps[3] + 1 frames
   std::vector<StereoPairCheck> checks;
   StereoFrame f;

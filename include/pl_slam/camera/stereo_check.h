@@ -80,6 +80,8 @@ struct StereoOffsetMeasurement {
   /// Enough usable pairs (5) for the summary to say anything.
   bool conclusive() const { return summary.pairs >= 5; }
 };
+/// Frames between two anchors of MeasureStereoOffset over `frames` frames (about 40 anchors).
+int StereoOffsetAnchorStride(int frames);
 StereoOffsetMeasurement MeasureStereoOffset(
     StereoSource* source, int max_frames,
     const std::function<void(int, int, const StereoPairCheck&)>& on_pair = {});
