@@ -24,6 +24,7 @@ std::string LoopClosingOptions::Validate() const {
   if (e.empty()) e = CheckRange("relocalize_candidates", relocalize_candidates, 1, 100);
   if (e.empty()) e = CheckRange("loop_edge_weight", loop_edge_weight, 0.0, 1e6, true);
   if (e.empty()) e = CheckRange("global_ba_iterations", global_ba_iterations, 1, 1000);
+  if (e.empty()) e = CheckRange("global_ba_followup", global_ba_followup, 0, 100000);
   if (!e.empty()) return e;
   e = database.Validate();
   if (!e.empty()) return "database." + e;

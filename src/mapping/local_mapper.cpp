@@ -57,6 +57,9 @@ struct LocalMapper::Impl {
   double loop_edge_weight = 1.0;
   bool global_ba = false;
   int global_ba_iterations = 10;
+  int global_ba_followup = 0;
+  /// Keyframes until the follow-up global BA of the last correction; -1 when none is due.
+  int followup_countdown = -1;
   std::atomic<int> corrections{0};
   // Global bundle adjustment. The job and `global_ba_running` belong to the mapping thread;
   // the helper thread only solves the job. `global_ba_pending` (under `mutex`) tells Flush()
@@ -79,7 +82,10 @@ struct LocalMapper::Impl {
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                 .count());
         ++corrections;
-        if (global_ba) StartGlobalBa();
+        if (global_ba) {
+          StartGlobalBa();
+          followup_countdown = global_ba_followup > 0 ? global_ba_followup : -1;
+        }
       }
     }
   }
@@ -112,15 +118,16 @@ struct LocalMapper::Impl {
     global_ba_pending = false;
   }
 
-  /// Starts a global BA of the map just corrected; a running one is stale: aborted first.
-  void StartGlobalBa() {
+  /// Starts a global BA of the map just corrected; a running one is stale: aborted first. False
+  /// when the map has fewer than two keyframes.
+  bool StartGlobalBa() {
     if (global_ba_running) {
       global_ba_abort = true;
       JoinGlobalBa();
       FinishGlobalBa(true);
     }
     auto job = std::make_unique<mapping::GlobalBa>();
-    if (!mapping::PrepareGlobalBundleAdjustment(ctx, job.get())) return;
+    if (!mapping::PrepareGlobalBundleAdjustment(ctx, job.get())) return false;
     global_ba_job = std::move(job);
     {
       std::lock_guard<std::mutex> lock(mutex);
@@ -130,7 +137,7 @@ struct LocalMapper::Impl {
     if (!ctx.options.threaded) {
       mapping::SolveGlobalBundleAdjustment(ctx, global_ba_iterations, nullptr, global_ba_job.get());
       FinishGlobalBa(false);
-      return;
+      return true;
     }
     global_ba_done = false;
     global_ba_running = true;
@@ -139,6 +146,19 @@ struct LocalMapper::Impl {
       mapping::SolveGlobalBundleAdjustment(ctx, global_ba_iterations, &global_ba_abort, target);
       global_ba_done = true;
     });
+    return true;
+  }
+
+  /// Counts the keyframes since the last correction's global BA and starts the follow-up one
+  /// when they reach loop.global_ba_followup (later while the first one is still solving).
+  void RunFollowUpGlobalBa() {
+    if (followup_countdown < 0) return;
+    if (followup_countdown > 0) --followup_countdown;
+    if (followup_countdown > 0 || global_ba_running) return;
+    followup_countdown = -1;
+    if (!StartGlobalBa()) return;
+    std::lock_guard<std::mutex> lock(mutex);
+    ++stats.global_ba_followups;
   }
 
   /// Merges a global BA whose solve has ended (mapping thread); an aborted one is discarded.
@@ -160,6 +180,7 @@ struct LocalMapper::Impl {
     if (LoopCloser* const closer = loop.load()) {
       closer->OnKeyframe(id);
       CorrectPendingLoops();
+      RunFollowUpGlobalBa();
     }
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
@@ -275,6 +296,7 @@ void LocalMapper::Clear() {
   impl_->global_ba_abort = true;  // the mapping thread discards it at its next wake-up
   impl_->idle_cv.wait(
       lock, [this] { return impl_->stop || (!impl_->busy && !impl_->global_ba_pending); });
+  impl_->followup_countdown = -1;  // the mapping thread is idle and needs the mutex to go on
 }
 
 void LocalMapper::SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& options) {
@@ -284,6 +306,7 @@ void LocalMapper::SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& opti
   impl_->loop_edge_weight = options.loop_edge_weight;
   impl_->global_ba = options.global_ba;
   impl_->global_ba_iterations = options.global_ba_iterations;
+  impl_->global_ba_followup = options.global_ba_followup;
 }
 
 int LocalMapper::loop_corrections() const { return impl_->corrections.load(); }

@@ -235,6 +235,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "after a loop correction, bundle-adjust the whole map in the background");
   t.Add("loop.global_ba_iterations", &lc.global_ba_iterations,
         "Levenberg-Marquardt iterations of that global bundle adjustment");
+  t.Add("loop.global_ba_followup", &lc.global_ba_followup,
+        "keyframes after a correction, one more global bundle adjustment (0 = none)");
   t.Add("loop.database.line_weight", &lc.database.line_weight,
         "weight of a line relative to a point in the combined score");
   t.Add("loop.verification.min_inliers", &lc.verification.min_inliers,

@@ -1,9 +1,9 @@
 // Loop closing and relocalisation through the SlamSystem on rendered sequences with exact
 // ground truth: the room's revisit is detected and every accepted loop is a true revisit,
-// the global bundle adjustment after it lowers the error (sequential) and is merged before
-// Flush() returns (threaded), the corridor (no revisit) gives none, and tracking recovers
-// after 20 blank frames in the same map frame, and a camera that comes back from 20 blank
-// frames somewhere else in the mapped room is relocalised there.
+// the global bundle adjustment after it and its follow-up lower the error (sequential) and are
+// merged before Flush() returns (threaded), the corridor (no revisit) gives none, and tracking
+// recovers after 20 blank frames in the same map frame, and a camera that comes back from 20
+// blank frames somewhere else in the mapped room is relocalised there.
 #include <gtest/gtest.h>
 
 #include "pl_slam/eval/evaluation.h"
@@ -79,27 +79,32 @@ TEST(LoopCloserTest, RoomRevisitIsDetectedAndEveryLoopIsTrue) {
   }
 }
 
-TEST(LoopCloserTest, GlobalBundleAdjustmentFollowsEveryCorrectionAndTheLoopLowersTheError) {
+TEST(LoopCloserTest, GlobalBundleAdjustmentAndItsFollowUpLowerTheError) {
   const Outcome& with = Room();
   ASSERT_GE(with.loops.loops_corrected, 1);
-  // Sequential: each correction's global BA runs in place and is merged.
-  EXPECT_EQ(with.mapping.global_bas, with.loops.loops_corrected);
+  // Sequential: each correction's global BA runs in place and is merged, and so is its
+  // follow-up loop.global_ba_followup keyframes later (the revisit is ~9 keyframes before the
+  // end of the lap).
+  EXPECT_EQ(with.mapping.global_ba_followups, with.loops.loops_corrected);
+  EXPECT_EQ(with.mapping.global_bas, 2 * with.loops.loops_corrected);
   EXPECT_EQ(with.mapping.global_bas_discarded, 0);
   SystemOptions options = Options();
-  options.loop.global_ba = false;
-  const Outcome without = RunScene(sim::SceneKind::kRoom, 480, options);
-  EXPECT_EQ(without.mapping.global_bas, 0);
-  EXPECT_EQ(without.loops.loops_corrected, with.loops.loops_corrected);
+  options.loop.global_ba_followup = 0;
+  const Outcome once = RunScene(sim::SceneKind::kRoom, 480, options);
+  EXPECT_EQ(once.mapping.global_ba_followups, 0);
+  EXPECT_EQ(once.mapping.global_bas, once.loops.loops_corrected);
+  EXPECT_EQ(once.loops.loops_corrected, with.loops.loops_corrected);
   options = Options();
   options.loop.enabled = false;
   const Outcome no_loop = RunScene(sim::SceneKind::kRoom, 480, options);
-  std::cout << "room ATE: no loop closing " << no_loop.ate * 1000 << " mm, pose graph only "
-            << without.ate * 1000 << " mm, with global BA " << with.ate * 1000 << " mm\n";
-  // The loop correction lowers the error with and without the global BA. On this one lap the
-  // pose graph alone ends closer to the truth than the global BA's optimum (docs/BENCHMARKS.md,
-  // eighth session); over three laps the global BA is the better of the two.
-  EXPECT_LT(with.ate, no_loop.ate);
-  EXPECT_LT(without.ate, no_loop.ate);
+  std::cout << "room ATE: no loop closing " << no_loop.ate * 1000
+            << " mm, global BA at the correction only " << once.ate * 1000
+            << " mm, with its follow-up " << with.ate * 1000 << " mm\n";
+  // The first global BA has few observations across the loop's seam; the follow-up also has
+  // the ones tracking and keyframe insertion made on the revisited part since (1.95 -> 1.45 mm
+  // when written, docs/BENCHMARKS.md, ninth session).
+  EXPECT_LT(once.ate, no_loop.ate);
+  EXPECT_LT(with.ate, once.ate);
 }
 
 TEST(LoopCloserTest, ThreadedGlobalBundleAdjustmentIsMergedBeforeFlushReturns) {
@@ -107,12 +112,15 @@ TEST(LoopCloserTest, ThreadedGlobalBundleAdjustmentIsMergedBeforeFlushReturns) {
   options.mapping.threaded = true;
   const Outcome out = RunScene(sim::SceneKind::kRoom, 480, options);
   std::cout << "threaded room: " << out.loops.loops_corrected << " loops corrected, "
-            << out.mapping.global_bas << " global BAs merged, " << out.mapping.global_bas_discarded
+            << out.mapping.global_bas << " global BAs merged (" << out.mapping.global_ba_followups
+            << " follow-ups), " << out.mapping.global_bas_discarded
             << " discarded, ATE " << out.ate * 1000 << " mm\n";
   ASSERT_GE(out.loops.loops_corrected, 1);
   // The last correction's global BA is never discarded: Flush() waits for it to be merged.
   EXPECT_GE(out.mapping.global_bas, 1);
-  EXPECT_EQ(out.mapping.global_bas + out.mapping.global_bas_discarded, out.loops.loops_corrected);
+  EXPECT_LE(out.mapping.global_ba_followups, out.loops.loops_corrected);
+  EXPECT_EQ(out.mapping.global_bas + out.mapping.global_bas_discarded,
+            out.loops.loops_corrected + out.mapping.global_ba_followups);
   EXPECT_LT(out.ate, 0.01);
 }
 

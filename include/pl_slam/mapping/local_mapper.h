@@ -109,6 +109,7 @@ struct MappingStats {
   std::vector<double> keyframe_ms;
   int global_bas = 0;                ///< global bundle adjustments merged into the map
   int global_bas_discarded = 0;      ///< aborted by a newer loop or a reset, or failed
+  int global_ba_followups = 0;       ///< of those started, follow-ups (loop.global_ba_followup)
   std::vector<double> global_ba_ms;  ///< solve time of each merged one
 };
 
