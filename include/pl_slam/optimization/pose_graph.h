@@ -43,7 +43,9 @@ struct PoseGraphSummary {
 /// Optimises `T_w_c` (one pose per node) in place so that the edges hold as well as possible;
 /// nodes with fixed[k] = true stay put (at least one must be fixed: the first is when none is).
 /// Residual per edge: [t_err; rotation_weight * 2 vec(q_err)] * sqrt(weight), where
-/// (q_err, t_err) = T_i_j_measured^-1 * T_w_i^-1 * T_w_j.
+/// (q_err, t_err) = T_i_j_measured^-1 * T_w_i^-1 * T_w_j. Edges naming a missing node, a
+/// self-edge or a weight that is not positive are skipped; no poses or no edges: no success
+/// ("empty graph"). Throws ConfigError on invalid options.
 PoseGraphSummary OptimizePoseGraph(
     const std::vector<PoseGraphEdge, Eigen::aligned_allocator<PoseGraphEdge>>& edges,
     const std::vector<char>& fixed, const PoseGraphOptions& options,
