@@ -416,7 +416,8 @@ int Run(int argc, char** argv) {
               << " ms, correction median " << Percentile(ls.correction_ms, 0.5) << " ms\n";
     if (ms.global_bas + ms.global_bas_discarded > 0)
       std::cout << "global BA: " << ms.global_bas << " merged, " << ms.global_bas_discarded
-                << " discarded (" << ms.global_ba_followups << " follow-ups); solve median " << Percentile(ms.global_ba_ms, 0.5) << " ms, max "
+                << " discarded (" << ms.global_ba_followups << " follow-ups); solve median "
+                << Percentile(ms.global_ba_ms, 0.5) << " ms, max "
                 << Percentile(ms.global_ba_ms, 1.0) << " ms\n";
     for (const auto& l : ls.loops)
       std::cout << "  loop: keyframe " << l.query << " -> " << l.candidate << " (frames "

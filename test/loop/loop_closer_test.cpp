@@ -113,8 +113,8 @@ TEST(LoopCloserTest, ThreadedGlobalBundleAdjustmentIsMergedBeforeFlushReturns) {
   const Outcome out = RunScene(sim::SceneKind::kRoom, 480, options);
   std::cout << "threaded room: " << out.loops.loops_corrected << " loops corrected, "
             << out.mapping.global_bas << " global BAs merged (" << out.mapping.global_ba_followups
-            << " follow-ups), " << out.mapping.global_bas_discarded
-            << " discarded, ATE " << out.ate * 1000 << " mm\n";
+            << " follow-ups), " << out.mapping.global_bas_discarded << " discarded, ATE "
+            << out.ate * 1000 << " mm\n";
   ASSERT_GE(out.loops.loops_corrected, 1);
   // The last correction's global BA is never discarded: Flush() waits for it to be merged.
   EXPECT_GE(out.mapping.global_bas, 1);

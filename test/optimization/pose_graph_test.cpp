@@ -20,8 +20,8 @@ Poses Ring() {
   for (int k = 0; k < 40; ++k) {
     const double a = 2.0 * M_PI * k / 40.0;
     const Eigen::Matrix3d R = ExpSO3(Eigen::Vector3d(0.0, a, 0.0));
-    truth.emplace_back(R, Eigen::Vector3d(2.0 * std::sin(a), 0.1 * std::sin(3.0 * a),
-                                          2.0 * std::cos(a)));
+    truth.emplace_back(
+        R, Eigen::Vector3d(2.0 * std::sin(a), 0.1 * std::sin(3.0 * a), 2.0 * std::cos(a)));
   }
   return truth;
 }
@@ -85,9 +85,9 @@ TEST(PoseGraphTest, LoopEdgePullsTheDriftedRingBack) {
   EXPECT_LT(s.final_cost, 0.05 * s.initial_cost);
   // The fixed node has not moved.
   EXPECT_LT((poses[0].translation() - truth[0].translation()).norm(), 1e-12);
-  EXPECT_LT((poses[0].rotation() * truth[0].rotation().transpose() - Eigen::Matrix3d::Identity())
-                .norm(),
-            1e-12);
+  EXPECT_LT(
+      (poses[0].rotation() * truth[0].rotation().transpose() - Eigen::Matrix3d::Identity()).norm(),
+      1e-12);
 }
 
 TEST(PoseGraphTest, ConsistentGraphStaysWhereItIs) {

@@ -40,7 +40,7 @@ struct LoopClosingOptions {
   /// merges the result between keyframes; a newer loop aborts a running one). Sequential mode
   /// runs it in place.
   bool global_ba = true;
-  int global_ba_iterations = 10;     ///< its Levenberg-Marquardt iterations
+  int global_ba_iterations = 10;  ///< its Levenberg-Marquardt iterations
   /// Keyframes after a correction (with global_ba), one more global BA of the whole map; 0 =
   /// none. By then tracking and keyframe insertion have re-observed the revisited area through
   /// the fused landmarks, which the first global BA lacked (docs/BENCHMARKS.md, ninth session).
