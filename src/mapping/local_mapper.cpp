@@ -296,7 +296,8 @@ void LocalMapper::Clear() {
   impl_->global_ba_abort = true;  // the mapping thread discards it at its next wake-up
   impl_->idle_cv.wait(
       lock, [this] { return impl_->stop || (!impl_->busy && !impl_->global_ba_pending); });
-  impl_->followup_countdown = -1;  // the mapping thread is idle and needs the mutex to go on
+  // Threaded: the mapping thread is idle and needs the mutex to go on; else this is its thread.
+  impl_->followup_countdown = -1;
 }
 
 void LocalMapper::SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& options) {
