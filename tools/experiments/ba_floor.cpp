@@ -1,0 +1,202 @@
+// Experiment (not built by catkin): where does the bundle adjustment objective of a finished
+// map have its optimum, and how far is the map from it? Runs a synthetic scene sequentially,
+// prints the map's keyframe ATE at every global BA and every 40 frames, then bundle-adjusts
+// the whole final map (a) from where it is and (b) from the ground truth (keyframes moved to
+// the truth, landmarks moved with their first observer), printing the keyframe ATE (SE3 and
+// Sim3 scale) after each solve. With --gt-residuals: the landmarks alone are optimised at the
+// ground-truth poses and the mean signed residuals per kind are printed.
+// docs/BENCHMARKS.md, ninth session, has what it measured.
+//
+// Build against a built workspace (from the repository root):
+//   g++ -O2 -std=c++17 -DNDEBUG -I include -I src/mapping -I /usr/include/eigen3 \
+//     -I /usr/include/opencv4 tools/experiments/ba_floor.cpp -o /tmp/ba_floor \
+//     -L.ws/devel/lib -lpl_slam_core -lceres -lglog $(pkg-config --libs opencv4) \
+//     -Wl,-rpath,$PWD/.ws/devel/lib
+// Run: /tmp/ba_floor room|corridor|fast_turn [--loops N] [--no-loop] [--gt-residuals]
+#include <cmath>
+#include <cstring>
+#include <iostream>
+#include <string>
+
+#include "mapping_steps.h"
+#include "pl_slam/eval/alignment.h"
+#include "pl_slam/eval/evaluation.h"
+#include "pl_slam/sim/synthetic_sequence.h"
+#include "pl_slam/system/slam_system.h"
+
+namespace {
+
+using pl_slam::SE3;
+using Poses = std::vector<SE3, Eigen::aligned_allocator<SE3>>;
+
+/// Keyframe ATE (mm) of `T_w_c` against `truth`, SE3-aligned; Sim3 scale and ATE printed.
+double KeyframeAte(const Poses& T_w_c, const Poses& truth) {
+  pl_slam::eval::Points3d a, b;
+  for (size_t i = 0; i < T_w_c.size(); ++i) {
+    a.push_back(T_w_c[i].translation());
+    b.push_back(truth[i].translation());
+  }
+  if (a.size() < 3) return 0.0;
+  auto rmse = [&](const pl_slam::eval::Alignment& al) {
+    double s = 0.0;
+    for (size_t i = 0; i < a.size(); ++i) s += (al.Apply(a[i]) - b[i]).squaredNorm();
+    return std::sqrt(s / a.size()) * 1000.0;
+  };
+  const auto sim3 = pl_slam::eval::UmeyamaAlignment(a, b, true);
+  std::cout << "[Sim3 scale " << sim3.scale << ", ATE " << rmse(sim3) << " mm] ";
+  return rmse(pl_slam::eval::UmeyamaAlignment(a, b, false));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace pl_slam;
+  if (argc < 2) {
+    std::cerr << "usage: ba_floor room|corridor|fast_turn [--loops N] [--no-loop] "
+                 "[--gt-residuals]\n";
+    return 2;
+  }
+  sim::SequenceOptions so;
+  const std::string scene = argv[1];
+  so.scene = scene == "corridor"    ? sim::SceneKind::kCorridor
+             : scene == "fast_turn" ? sim::SceneKind::kFastTurn
+                                    : sim::SceneKind::kRoom;
+  SystemOptions o;
+  o.mapping.threaded = false;
+  o.loop.vocabulary = "vocabulary";  // run from the repository root
+  bool gt_residuals = false;
+  for (int i = 2; i < argc; ++i) {
+    if (!std::strcmp(argv[i], "--loops") && i + 1 < argc) so.loops = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--no-loop")) o.loop.enabled = false;
+    if (!std::strcmp(argv[i], "--gt-residuals")) gt_residuals = true;
+  }
+  sim::SyntheticSequence seq(so);
+  Poses truth;  // in the map frame (the first camera's)
+  const SE3 inv0 = seq.ground_truth()[0].T_w_c.inverse();
+  for (const auto& s : seq.ground_truth()) truth.push_back(inv0 * s.T_w_c);
+
+  SlamSystem system(seq.camera(), o);
+  auto map_ate = [&] {
+    const MapSnapshot snap = system.map().Snapshot();
+    Poses est, gt;
+    for (const auto& k : snap.keyframes) {
+      est.push_back(k.T_w_c);
+      gt.push_back(truth[k.frame_index]);
+    }
+    return KeyframeAte(est, gt);
+  };
+  int global_bas = 0;
+  for (size_t i = 0; i < seq.size(); ++i) {
+    system.Process(seq.Render(i));
+    if (system.mapping_stats().global_bas != global_bas || i % 40 == 0) {
+      global_bas = system.mapping_stats().global_bas;
+      std::cout << "frame " << i << ", global BAs " << global_bas << ": keyframe ATE ";
+      std::cout << map_ate() << " mm\n";
+    }
+  }
+  system.Flush();
+  std::vector<double> times;
+  for (const auto& s : seq.ground_truth()) times.push_back(s.t);
+  std::cout << "frame ATE "
+            << eval::EvaluateTrajectory(system.trajectory(), seq.ground_truth(), times)
+                       .ate.translation.rmse *
+                   1000.0
+            << " mm\n";
+
+  Map& map = const_cast<Map&>(system.map());  // the system is done with it
+  mapping::Context ctx;
+  ctx.camera = seq.camera();
+  ctx.options = o.mapping;
+  ctx.options.ba.max_iterations = 30;
+  ctx.map = &map;
+  for (const bool from_truth : {false, true}) {
+    mapping::GlobalBa job;
+    if (!mapping::PrepareGlobalBundleAdjustment(ctx, &job)) return 1;
+    BaProblem& p = job.window.problem;
+    Poses gt;
+    {
+      auto lock = map.Lock();
+      for (KeyframeId id : job.window.pose_ids)
+        gt.push_back(truth[map.KeyframeLocked(id)->frame_index]);
+    }
+    if (from_truth || gt_residuals) {
+      Poses correction;
+      for (size_t i = 0; i < p.poses.size(); ++i) {
+        correction.push_back(gt[i] * p.poses[i].T_w_c.inverse());
+        p.poses[i].T_w_c = gt[i];
+        p.poses[i].fixed = gt_residuals || i == 0;
+      }
+      std::vector<int> first_point(p.points.size(), -1), first_line(p.line_P.size(), -1);
+      for (const auto& ob : p.point_obs)
+        if (first_point[ob.point] < 0) first_point[ob.point] = ob.pose;
+      for (const auto& ob : p.line_obs)
+        if (first_line[ob.line] < 0) first_line[ob.line] = ob.pose;
+      for (size_t i = 0; i < p.points.size(); ++i)
+        if (first_point[i] >= 0) p.points[i] = correction[first_point[i]] * p.points[i];
+      for (size_t i = 0; i < p.line_P.size(); ++i)
+        if (first_line[i] >= 0) {
+          p.line_P[i] = correction[first_line[i]] * p.line_P[i];
+          p.line_Q[i] = correction[first_line[i]] * p.line_Q[i];
+        }
+    }
+    const BaSummary s = SolveBundleAdjustment(ctx.camera, ctx.options.ba, &p);
+    std::cout << (from_truth ? "from the ground truth" : "from the map") << ": cost "
+              << s.initial_cost << " -> " << s.final_cost << " in " << s.iterations
+              << " iterations; keyframe ATE ";
+    Poses est;
+    for (const auto& pose : p.poses) est.push_back(pose.T_w_c);
+    std::cout << KeyframeAte(est, gt) << " mm\n";
+    if (!gt_residuals) continue;
+    // Mean signed residuals at the ground-truth poses (landmarks optimised, |r| < 2 px).
+    const StereoCamera& cam = ctx.camera;
+    double du = 0, dv = 0, dr = 0;
+    int n = 0, nr = 0;
+    for (const auto& ob : p.point_obs) {
+      const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
+      if (X.z() < 0.1) continue;
+      const Eigen::Vector2d e = cam.Project(X) - ob.uv;
+      if (e.norm() > 2.0) continue;
+      du += e.x();
+      dv += e.y();
+      ++n;
+      if (ob.stereo) {
+        dr += cam.ProjectRight(X).x() - ob.u_right;
+        ++nr;
+      }
+    }
+    std::cout << "points: " << n << " observations, mean du " << du / n << " dv " << dv / n
+              << "; right image " << nr << ", mean du " << dr / std::max(nr, 1) << "\n";
+    const Eigen::Vector3d centre(cam.cx, cam.cy, 1.0);
+    for (int bin = 1; bin < 4; ++bin) {  // line angle from the horizontal, 22.5-degree bins
+      double sl = 0, sr = 0;
+      int nl = 0, nrl = 0;
+      for (const auto& ob : p.line_obs) {
+        const double angle = std::atan2(std::abs(ob.l.x()), std::abs(ob.l.y())) * 180 / M_PI;
+        if (std::min(3, static_cast<int>(angle / 22.5)) != bin) continue;
+        const SE3 T_c_w = p.poses[ob.pose].T_w_c.inverse();
+        for (const Eigen::Vector3d& X : {T_c_w * p.line_P[ob.line], T_c_w * p.line_Q[ob.line]}) {
+          if (X.z() < 0.1) continue;
+          // Signed toward the image centre.
+          const Eigen::Vector2d u = cam.Project(X);
+          const double d = ob.l.dot(Eigen::Vector3d(u.x(), u.y(), 1.0));
+          if (std::abs(d) < 2.0) {
+            sl += ob.l.dot(centre) > 0 ? d : -d;
+            ++nl;
+          }
+          if (!ob.stereo) continue;
+          const Eigen::Vector2d ur = cam.ProjectRight(X);
+          const double d_r = ob.l_right.dot(Eigen::Vector3d(ur.x(), ur.y(), 1.0));
+          if (std::abs(d_r) < 2.0) {
+            sr += ob.l_right.dot(centre) > 0 ? d_r : -d_r;
+            ++nrl;
+          }
+        }
+      }
+      std::cout << "lines " << bin * 22.5 << "-" << (bin + 1) * 22.5 << " deg: left " << nl
+                << ", mean " << sl / std::max(nl, 1) << "; right " << nrl << ", mean "
+                << sr / std::max(nrl, 1) << "\n";
+    }
+    break;
+  }
+  return 0;
+}
