@@ -12,7 +12,8 @@
 //     -I /usr/include/opencv4 tools/experiments/ba_floor.cpp -o /tmp/ba_floor \
 //     -L.ws/devel/lib -lpl_slam_core -lceres -lglog $(pkg-config --libs opencv4) \
 //     -Wl,-rpath,$PWD/.ws/devel/lib
-// Run: /tmp/ba_floor room|corridor|fast_turn [--loops N] [--no-loop] [--gt-residuals]
+// Run: /tmp/ba_floor room|corridor|fast_turn [--loops N] [--no-loop] [--no-followup]
+//   [--gt-residuals]
 #include <cmath>
 #include <cstring>
 #include <iostream>
@@ -53,7 +54,7 @@ int main(int argc, char** argv) {
   using namespace pl_slam;
   if (argc < 2) {
     std::cerr << "usage: ba_floor room|corridor|fast_turn [--loops N] [--no-loop] "
-                 "[--gt-residuals]\n";
+                 "[--no-followup] [--gt-residuals]\n";
     return 2;
   }
   sim::SequenceOptions so;
@@ -68,6 +69,7 @@ int main(int argc, char** argv) {
   for (int i = 2; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--loops") && i + 1 < argc) so.loops = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--no-loop")) o.loop.enabled = false;
+    if (!std::strcmp(argv[i], "--no-followup")) o.loop.global_ba_followup = 0;
     if (!std::strcmp(argv[i], "--gt-residuals")) gt_residuals = true;
   }
   sim::SyntheticSequence seq(so);
