@@ -142,8 +142,10 @@ int main(int argc, char** argv) {
         }
     }
     const BaSummary s = SolveBundleAdjustment(ctx.camera, ctx.options.ba, &p);
-    std::cout << (from_truth ? "from the ground truth" : "from the map") << ": cost "
-              << s.initial_cost << " -> " << s.final_cost << " in " << s.iterations
+    std::cout << (gt_residuals ? "landmarks only, at the ground truth"
+                  : from_truth ? "from the ground truth"
+                               : "from the map")
+              << ": cost " << s.initial_cost << " -> " << s.final_cost << " in " << s.iterations
               << " iterations; keyframe ATE ";
     Poses est;
     for (const auto& pose : p.poses) est.push_back(pose.T_w_c);
