@@ -405,7 +405,8 @@ int Run(int argc, char** argv) {
     const pl_slam::MapCounts mc = system.map().counts();
     std::cout << "map: " << mc.keyframes << " keyframes (" << ms.keyframes_processed
               << " inserted, " << ms.keyframes_culled << " culled, " << ms.keyframes_dropped
-              << " dropped), " << mc.points << " points, " << mc.lines << " lines; local BA median "
+              << " dropped), " << mc.points << " points (" << mc.culled_points << " culled), "
+              << mc.lines << " lines (" << mc.culled_lines << " culled); local BA median "
               << Percentile(ms.ba_ms, 0.5) << " ms, p95 " << Percentile(ms.ba_ms, 0.95)
               << " ms; keyframe mapping median " << Percentile(ms.keyframe_ms, 0.5) << " ms\n";
     const pl_slam::LoopStats ls = system.loop_stats();

@@ -28,9 +28,15 @@ int Cull(const Context& ctx, KeyframeId id) {
   const auto& kfs = map.KeyframesLocked();
   if (kfs.size() < 3) return 0;
   const KeyframeId root = kfs.begin()->first;
+  // Ids grow with insertion, so the newest keyframes are the last ones of the ordered map.
+  KeyframeId oldest_kept = kNoId;
+  int newest = o.cull_keep_newest;
+  for (auto it = kfs.rbegin(); it != kfs.rend() && newest > 0; ++it, --newest)
+    oldest_kept = it->first;
   int culled = 0;
   for (const auto& [k, n] : map.CovisibleLocked(id, 1)) {
     if (k == root || k == id) continue;
+    if (oldest_kept != kNoId && k >= oldest_kept) continue;
     const auto kf = map.KeyframeLocked(k);
     if (!kf) continue;
     int total = 0, redundant = 0;

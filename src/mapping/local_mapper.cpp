@@ -27,6 +27,7 @@ std::string MappingOptions::Validate() const {
   if (e.empty()) e = CheckRange("min_observations", min_observations, 1, 100);
   if (e.empty()) e = CheckRange("redundant_ratio", redundant_ratio, 0.0, 1.0, true);
   if (e.empty()) e = CheckRange("redundant_min_observers", redundant_min_observers, 1, 100);
+  if (e.empty()) e = CheckRange("cull_keep_newest", cull_keep_newest, 0, 100000);
   if (e.empty()) e = CheckRange("line_weight", line_weight, 0.0, 100.0, true);
   if (e.empty()) e = CheckRange("stereo_max_depth_baselines", stereo_max_depth_baselines, 0.0, 1e6);
   if (e.empty()) e = CheckRange("track_min_inliers", track_min_inliers, 6, 10000);

@@ -171,6 +171,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "keyframe redundant when this share of its landmarks is seen by enough others");
   t.Add("mapping.redundant_min_observers", &mp.redundant_min_observers,
         "other keyframes that count as enough");
+  t.Add("mapping.cull_keep_newest", &mp.cull_keep_newest,
+        "the newest this many keyframes are never culled");
   t.Add("mapping.stereo_residuals", &mp.stereo_residuals,
         "bundle adjustment also uses the right image of stereo observations");
   t.Add("mapping.stereo_max_depth_baselines", &mp.stereo_max_depth_baselines,

@@ -1,6 +1,7 @@
 // Local mapping through the SlamSystem on rendered sequences with exact ground truth:
-// the sequential mode is deterministic, mapping beats visual odometry alone, the threaded
-// mode processes every keyframe it accepts, and bad options are refused by name.
+// the sequential mode is deterministic, mapping beats visual odometry alone, culling spares
+// the newest keyframes, the threaded mode processes every keyframe it accepts, and bad
+// options are refused by name.
 #include <gtest/gtest.h>
 
 #include <map>
@@ -117,6 +118,37 @@ TEST(LocalMapperTest, MappingBeatsVisualOdometryAlone) {
   EXPECT_EQ(without.counts.keyframes, 0u);
 }
 
+// Lines only, the corridor makes a keyframe at almost every frame (fewer than 40 inliers), and
+// each new keyframe sees most landmarks of the few before it. Culling those as soon as that
+// happens left 20 of 260 keyframes and an ATE twice visual odometry's; keeping the newest
+// (mapping.cull_keep_newest) still culls most keyframes once they are behind the camera.
+TEST(LocalMapperTest, CullingKeepsTheNewestKeyframes) {
+  const auto kCorridor = sim::SceneKind::kCorridor;
+  constexpr int kFrames = 300;
+  SystemOptions o = Sequential();
+  o.tracker.mode = FeatureMode::kLines;
+  o.loop.enabled = false;
+  SystemOptions vo = o;
+  vo.mapping.enabled = false;
+  const RunOutcome odometry = RunSystem(vo, kFrames, kCorridor);
+  SystemOptions eager = o;
+  eager.mapping.cull_keep_newest = 0;
+  const RunOutcome culled_early = RunSystem(eager, kFrames, kCorridor);
+  const RunOutcome kept = RunSystem(o, kFrames, kCorridor);
+  auto describe = [](const RunOutcome& r) {
+    return std::to_string(r.ate * 1e3) + " mm, " + std::to_string(r.counts.keyframes) + " of " +
+           std::to_string(r.stats.keyframes_processed) + " keyframes";
+  };
+  std::cout << "corridor, lines only: VO " << odometry.ate * 1e3 << " mm; map, newest culled "
+            << describe(culled_early) << "; newest 20 kept " << describe(kept) << "\n";
+  EXPECT_EQ(kept.trajectory.size(), static_cast<size_t>(kFrames));
+  EXPECT_LT(kept.ate, 0.5 * culled_early.ate);
+  EXPECT_LT(kept.ate, 0.8 * odometry.ate);
+  // Culling still bounds the map: most keyframes go.
+  EXPECT_GT(kept.stats.keyframes_culled, kept.stats.keyframes_processed / 2);
+  EXPECT_GE(kept.counts.keyframes, 20u);
+}
+
 TEST(LocalMapperTest, ThreadedModeProcessesEveryAcceptedKeyframe) {
   const RunOutcome run = RunSystem(SystemOptions(), 80);
   EXPECT_EQ(run.stats.queue_length, 0);
@@ -139,6 +171,15 @@ TEST(LocalMapperTest, InvalidOptionsAreRefusedByName) {
   o = SystemOptions();
   o.mapping.ba.max_iterations = 0;
   EXPECT_THROW(SlamSystem(data.camera, o), ConfigError);
+  o = SystemOptions();
+  o.mapping.cull_keep_newest = -1;
+  try {
+    SlamSystem system(data.camera, o);
+    FAIL() << "cull_keep_newest=-1 accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mapping.cull_keep_newest=-1"), std::string::npos)
+        << e.what();
+  }
 }
 
 }  // namespace

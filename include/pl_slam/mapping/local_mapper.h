@@ -50,7 +50,12 @@ struct MappingOptions {
   bool cull_keyframes = true;    ///< remove redundant keyframes
   double redundant_ratio = 0.9;  ///< redundant: this share of its landmarks seen by enough others
   int redundant_min_observers = 3;  ///< "enough others"
-  bool stereo_residuals = true;     ///< BA also uses the right image of stereo observations
+  /// The newest this many keyframes are never culled. Tracking, the next keyframe's
+  /// refinement and local BA link through them, and culling them as soon as later keyframes
+  /// see their landmarks thins the map where it is being built: lines-only mapping on the
+  /// corridor went from 1.7 to 9.2 mm ATE when every frame was a keyframe (docs/BENCHMARKS.md).
+  int cull_keep_newest = 20;
+  bool stereo_residuals = true;  ///< BA also uses the right image of stereo observations
   /// Stereo observations of points farther than this many baselines use the left image only
   /// in bundle adjustment (0: no limit). Their disparity is a few pixels, so a small stereo
   /// calibration error (a tenth of a pixel of principal-point offset) is a large depth error
