@@ -18,8 +18,8 @@ import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-WS = os.environ.get("PL_SLAM_WS", os.path.join(ROOT, ".ws"))
-BIN = os.path.join(WS, "devel", "lib", "pl_slam")
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from benchmark_offline import BIN, run  # noqa: E402  (the benchmark's binaries and runner)
 
 
 def seeds_of(text):
@@ -31,13 +31,6 @@ def seeds_of(text):
         else:
             out.append(int(part))
     return out
-
-
-def run(cmd, log):
-    with open(log, "w") as f:
-        rc = subprocess.call(cmd, stdout=f, stderr=subprocess.STDOUT)
-    if rc != 0:
-        sys.exit("seed_sweep: %s failed (exit %d), see %s" % (os.path.basename(cmd[0]), rc, log))
 
 
 def main():
@@ -57,7 +50,13 @@ def main():
             sys.exit("seed_sweep: --variant %r must be NAME=K=V[,K=V...]" % v)
         name, sets = v.split("=", 1)
         variants.append((name, sets))
-    seeds = seeds_of(args.seeds)
+    try:
+        sweep(args, variants, seeds_of(args.seeds))
+    except RuntimeError as e:  # a tool failed; run() put the command and its log tail in e
+        sys.exit("seed_sweep: %s" % e)
+
+
+def sweep(args, variants, seeds):
     os.makedirs(os.path.join(args.out, "runs"), exist_ok=True)
     ate_re = re.compile(r"ATE SE3\s+rmse\s+([0-9.eE+-]+) m")
     print("%-12s %s   mean" % ("variant", " ".join("s%-5d" % s for s in seeds)))
