@@ -10,12 +10,14 @@
 
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
+#include "pl_slam/util/thread_priority.h"
 #include "pl_slam/util/validation.h"
 
 namespace pl_slam {
 
 std::string LoopClosingOptions::Validate() const {
   std::string e = CheckRange("queue_size", queue_size, 1, 10000);
+  if (e.empty()) e = CheckRange("thread_niceness", thread_niceness, 0, 19);
   if (e.empty()) e = CheckRange("min_keyframe_gap", min_keyframe_gap, 1, 100000);
   if (e.empty()) e = CheckRange("max_candidates", max_candidates, 1, 100);
   if (e.empty()) e = CheckRange("min_score", min_score, 0.0, 1.0);
@@ -187,7 +189,10 @@ struct LoopCloser::Impl {
   }
 
   void Run() {
+    const std::string refused = LowerThreadPriority(options.thread_niceness);
+    if (!refused.empty()) PL_LOG_WARN("loop closing keeps the tracking priority: " << refused);
     std::unique_lock<std::mutex> lock(mutex);
+    stats.thread_nice = ThreadNiceValue();
     while (true) {
       work_cv.wait(lock, [this] { return stop || !queue.empty(); });
       if (stop) break;

@@ -10,6 +10,7 @@
 #include "mapping_steps.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
+#include "pl_slam/util/thread_priority.h"
 #include "pl_slam/util/validation.h"
 #include "pl_slam/util/worker_thread.h"
 
@@ -17,6 +18,7 @@ namespace pl_slam {
 
 std::string MappingOptions::Validate() const {
   std::string e = CheckRange("queue_size", queue_size, 1, 1000);
+  if (e.empty()) e = CheckRange("thread_niceness", thread_niceness, 0, 19);
   if (e.empty()) e = CheckRange("window", window, 2, 100);
   if (e.empty()) e = CheckRange("max_fixed_keyframes", max_fixed_keyframes, 0, 1000);
   if (e.empty()) e = CheckRange("refine_min_inliers", refine_min_inliers, 6, 10000);
@@ -195,7 +197,11 @@ struct LocalMapper::Impl {
   }
 
   void Run() {
+    // Before anything else: the global BA's helper thread, created from this one, inherits it.
+    const std::string refused = LowerThreadPriority(ctx.options.thread_niceness);
+    if (!refused.empty()) PL_LOG_WARN("local mapping keeps the tracking priority: " << refused);
     std::unique_lock<std::mutex> lock(mutex);
+    stats.thread_nice = ThreadNiceValue();
     while (true) {
       // Wakes up now and then to correct loops verified while no keyframe came.
       work_cv.wait_for(lock, std::chrono::milliseconds(50),

@@ -151,6 +151,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.threaded", &mp.threaded,
         "local mapping in its own thread (off: in line, deterministic)");
   t.Add("mapping.queue_size", &mp.queue_size, "keyframes waiting for mapping; more are dropped");
+  t.Add("mapping.thread_niceness", &mp.thread_niceness,
+        "mapping thread and its global BA: nice steps below tracking (0-19)");
   t.Add("mapping.window", &mp.window, "keyframes optimised by local bundle adjustment");
   t.Add("mapping.max_fixed_keyframes", &mp.max_fixed_keyframes,
         "outside keyframes held fixed in local bundle adjustment");
@@ -221,6 +223,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "folder with orb.plvoc and lbd.plvoc; empty = the package's vocabulary/, relative = "
         "relative to the package");
   t.Add("loop.queue_size", &lc.queue_size, "keyframes waiting for loop detection");
+  t.Add("loop.thread_niceness", &lc.thread_niceness,
+        "loop-closing thread: nice steps below tracking (0-19)");
   t.Add("loop.min_keyframe_gap", &lc.min_keyframe_gap,
         "loop candidates are at least this many keyframes older");
   t.Add("loop.max_candidates", &lc.max_candidates, "database results examined per keyframe");

@@ -6,9 +6,12 @@
 // blank frames somewhere else in the mapped room is relocalised there.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "pl_slam/eval/evaluation.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
+#include "pl_slam/util/thread_priority.h"
 #include "test_util/system_options.h"
 
 namespace pl_slam {
@@ -122,6 +125,12 @@ TEST(LoopCloserTest, ThreadedGlobalBundleAdjustmentIsMergedBeforeFlushReturns) {
   EXPECT_EQ(out.mapping.global_bas + out.mapping.global_bas_discarded,
             out.loops.loops_corrected + out.mapping.global_ba_followups);
   EXPECT_LT(out.ate, 0.01);
+  // Both background threads run below this (the tracking) thread's priority.
+  const int tracking_nice = ThreadNiceValue();
+  EXPECT_EQ(out.mapping.thread_nice, std::min(19, tracking_nice + options.mapping.thread_niceness));
+  EXPECT_EQ(out.loops.thread_nice, std::min(19, tracking_nice + options.loop.thread_niceness));
+  EXPECT_GT(options.mapping.thread_niceness, 0);  // the defaults lower them
+  EXPECT_GT(options.loop.thread_niceness, 0);
 }
 
 TEST(LoopCloserTest, CorridorWithoutRevisitGivesNoLoop) {

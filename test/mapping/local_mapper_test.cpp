@@ -4,6 +4,7 @@
 // options are refused by name.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <map>
 #include <vector>
 
@@ -11,6 +12,7 @@
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
 #include "pl_slam/util/error.h"
+#include "pl_slam/util/thread_priority.h"
 
 namespace pl_slam {
 namespace {
@@ -156,6 +158,7 @@ TEST(LocalMapperTest, ThreadedModeProcessesEveryAcceptedKeyframe) {
   EXPECT_EQ(run.counts.keyframes + run.stats.keyframes_culled,
             static_cast<size_t>(run.stats.keyframes_processed));
   EXPECT_LT(run.ate, 0.015);
+  EXPECT_EQ(run.stats.thread_nice, std::min(19, ThreadNiceValue() + 10));  // the default
 }
 
 TEST(LocalMapperTest, InvalidOptionsAreRefusedByName) {
@@ -179,6 +182,23 @@ TEST(LocalMapperTest, InvalidOptionsAreRefusedByName) {
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("mapping.cull_keep_newest=-1"), std::string::npos)
         << e.what();
+  }
+  o = SystemOptions();
+  o.mapping.thread_niceness = 20;
+  try {
+    SlamSystem system(data.camera, o);
+    FAIL() << "thread_niceness=20 accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("mapping.thread_niceness=20"), std::string::npos)
+        << e.what();
+  }
+  o = SystemOptions();
+  o.loop.thread_niceness = -1;
+  try {
+    SlamSystem system(data.camera, o);
+    FAIL() << "loop.thread_niceness=-1 accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("loop.thread_niceness=-1"), std::string::npos) << e.what();
   }
 }
 

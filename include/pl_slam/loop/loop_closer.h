@@ -29,6 +29,7 @@ struct LoopClosingOptions {
   /// by the runner / nodelet); relative paths are relative to the package.
   std::string vocabulary;
   int queue_size = 16;                ///< keyframes waiting for detection; more are skipped
+  int thread_niceness = 10;           ///< threaded: nice steps below tracking (0-19), as in mapping
   int min_keyframe_gap = 15;          ///< candidates are at least this many keyframe ids older
   int max_candidates = 4;             ///< database results examined per keyframe
   double min_score = 0.02;            ///< combined BoW score a candidate needs at least
@@ -75,6 +76,7 @@ struct LoopStats {
   std::vector<double> query_ms;       ///< BoW + database query per keyframe
   std::vector<double> correction_ms;  ///< pose graph + landmark correction per loop
   std::vector<LoopDetection, Eigen::aligned_allocator<LoopDetection>> loops;  ///< accepted
+  int thread_nice = 0;  ///< nice value of the loop-closing thread (threaded mode)
 };
 
 /// Loop detection and relocalisation over one map.

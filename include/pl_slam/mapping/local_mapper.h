@@ -30,7 +30,11 @@ struct MappingOptions {
   bool enabled = true;   ///< build a map; off = visual odometry only
   bool threaded = true;  ///< local mapping in its own thread; off = in Process() (deterministic)
   int queue_size = 4;    ///< keyframes waiting for mapping; a full queue drops new ones
-  int window = 10;       ///< keyframes optimised by local BA (the new one and its best covisible)
+  /// Threaded: the mapping thread (and the global BA it starts) runs this many nice steps
+  /// below the tracking thread (0-19), so a bundle adjustment uses the CPU time tracking
+  /// leaves over instead of delaying frames (docs/BENCHMARKS.md, eleventh session).
+  int thread_niceness = 10;
+  int window = 10;  ///< keyframes optimised by local BA (the new one and its best covisible)
   int max_fixed_keyframes = 20;  ///< other keyframes observing the window's landmarks, held fixed
   bool refine_against_previous = true;  ///< refine a new keyframe's pose against the previous one
   int refine_min_inliers = 30;          ///< fewer inliers: keep the tracked pose
@@ -116,6 +120,7 @@ struct MappingStats {
   int global_bas_discarded = 0;      ///< aborted by a newer loop or a reset, or failed
   int global_ba_followups = 0;       ///< of those started, follow-ups (loop.global_ba_followup)
   std::vector<double> global_ba_ms;  ///< solve time of each merged one
+  int thread_nice = 0;               ///< nice value of the mapping thread (threaded mode)
 };
 
 /// The options of the modules local mapping reuses from tracking.
