@@ -297,6 +297,12 @@ void LocalMapper::Flush() {
   });
 }
 
+bool LocalMapper::Idle() const {
+  if (!impl_->ctx.options.threaded) return true;
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->queue.empty() && !impl_->busy;
+}
+
 void LocalMapper::Clear() {
   std::unique_lock<std::mutex> lock(impl_->mutex);
   impl_->queue.clear();

@@ -234,6 +234,8 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     }
   }
 
+  // Keyframes whenever local mapping can take them (tracker.keyframes.idle_min_frames).
+  if (s.mapper && !s.localization_only) s.tracker->SetMappingIdle(s.mapper->Idle());
   TrackerResult r = s.tracker->Track(frame);
   {
     std::lock_guard<std::mutex> lock(s.features_mutex);
@@ -336,7 +338,8 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
       s.local_map.reference_landmarks > 0 &&
       (r.keyframe_reason == KeyframeReason::kEntropy ||
        r.keyframe_reason == KeyframeReason::kLargeMotion ||
-       r.keyframe_reason == KeyframeReason::kMaxFrames) &&
+       r.keyframe_reason == KeyframeReason::kMaxFrames ||
+       r.keyframe_reason == KeyframeReason::kMappingIdle) &&
       tracked.point_inliers + tracked.line_inliers >=
           mo.skip_covered_keyframes * s.local_map.reference_landmarks) {
     result->is_keyframe = false;

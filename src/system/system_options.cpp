@@ -135,6 +135,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "keyframe when h(kf,cur)/h(kf,kf+1) drops below");
   t.Add("tracker.keyframes.min_frames", &k.min_frames,
         "entropy test from this many frames after a keyframe");
+  t.Add("tracker.keyframes.idle_min_frames", &k.idle_min_frames,
+        "keyframe this many frames after the last when local mapping is idle (0 = off)");
   t.Add("tracker.keyframes.max_frames", &k.max_frames,
         "keyframe at the latest after this many frames");
   t.Add("tracker.keyframes.min_inliers", &k.min_inliers, "keyframe when inliers drop below");

@@ -24,6 +24,7 @@ std::string KeyframeSelectorOptions::Validate() const {
   check(CheckRange("entropy_ratio", entropy_ratio, 0.0, 1.0, true));
   check(CheckRange("min_frames", min_frames, 1, 100000));
   check(CheckRange("max_frames", max_frames, min_frames, 100000));
+  check(CheckRange("idle_min_frames", idle_min_frames, 0, 100000));
   check(CheckRange("min_inliers", min_inliers, 0, 1000000));
   check(CheckRange("max_translation", max_translation, 0.0, 1e6, true));
   check(CheckRange("max_rotation_deg", max_rotation_deg, 0.0, 180.0, true));
@@ -46,6 +47,8 @@ const char* KeyframeReasonName(KeyframeReason reason) {
       return "large_motion";
     case KeyframeReason::kMaxFrames:
       return "max_frames";
+    case KeyframeReason::kMappingIdle:
+      return "mapping_idle";
     case KeyframeReason::kInvalidInput:
       return "invalid_input";
   }
@@ -83,7 +86,7 @@ void KeyframeSelector::Restart() {
 }
 
 KeyframeReason KeyframeSelector::AddFrame(const SE3& T_prev_cur, const Matrix6d& cov_prev_cur,
-                                          int inliers) {
+                                          int inliers, bool mapping_idle) {
   if (!has_keyframe_) {
     Restart();
     has_keyframe_ = true;
@@ -128,6 +131,8 @@ KeyframeReason KeyframeSelector::AddFrame(const SE3& T_prev_cur, const Matrix6d&
     reason = KeyframeReason::kNone;  // at rest since the keyframe: nothing new to map
   } else if (frames_ >= options_.max_frames) {
     reason = KeyframeReason::kMaxFrames;
+  } else if (mapping_idle && options_.idle_min_frames > 0 && frames_ >= options_.idle_min_frames) {
+    reason = KeyframeReason::kMappingIdle;
   } else if (frames_ >= options_.min_frames &&
              h - first_entropy_ > (1.0 - options_.entropy_ratio) * std::abs(first_entropy_)) {
     reason = KeyframeReason::kEntropy;

@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
+#include <utility>
 
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
@@ -79,6 +80,7 @@ struct StereoTracker::Impl {
   LineDetector line_detector;
   KeyframeSelector selector;
   bool use_points = true, use_lines = true;
+  bool mapping_idle = false;  // SetMappingIdle: for the next Track() only
 
   bool has_previous = false;
   bool initialized = false;
@@ -220,8 +222,11 @@ void StereoTracker::Relocalized(const SE3& T_w_c) {
   s.has_keyframe = false;
 }
 
+void StereoTracker::SetMappingIdle(bool idle) { impl_->mapping_idle = idle; }
+
 TrackerResult StereoTracker::Track(const StereoFrame& frame) {
   Impl& s = *impl_;
+  const bool mapping_idle = std::exchange(s.mapping_idle, false);
   TrackerResult result;
   result.T_w_c = s.T_w_c;
 
@@ -349,8 +354,9 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame) {
     s.state = s.initialized ? TrackerState::kTracking : TrackerState::kNotInitialized;
   } else if (tracked) {
     s.state = TrackerState::kTracking;
-    result.keyframe_reason = s.selector.AddFrame(result.T_prev_cur, result.covariance_prev_cur,
-                                                 result.point_inliers + result.line_inliers);
+    result.keyframe_reason =
+        s.selector.AddFrame(result.T_prev_cur, result.covariance_prev_cur,
+                            result.point_inliers + result.line_inliers, mapping_idle);
     result.is_keyframe = result.keyframe_reason != KeyframeReason::kNone;
   } else {
     // Lost: restart from the last pose with this frame as the new reference. The trajectory

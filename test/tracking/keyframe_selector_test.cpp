@@ -285,6 +285,33 @@ TEST(KeyframeSelectorSafety, MaxFrames) {
   }
 }
 
+// Local mapping idle (ORB-SLAM's rule): a keyframe idle_min_frames after the last one, but only
+// once the camera has moved, never while mapping is busy, and never with the rule off.
+TEST(KeyframeSelectorSafety, MappingIdle) {
+  KeyframeSelectorOptions opt = Passive();
+  opt.idle_min_frames = 2;
+  opt.min_translation = 0.01;
+  const Matrix6d cov = Diag(1e-4, 1e-4);
+  const SE3 step(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.02, 0.0, 0.0));
+  KeyframeSelector selector(opt);
+  EXPECT_EQ(selector.AddFrame(SE3(), cov, 100, true), KeyframeReason::kFirst);
+  EXPECT_EQ(selector.AddFrame(step, cov, 100, true), KeyframeReason::kNone);  // 1 frame
+  EXPECT_EQ(selector.AddFrame(step, cov, 100, true), KeyframeReason::kMappingIdle);
+  EXPECT_EQ(selector.AddFrame(step, cov, 100, false), KeyframeReason::kNone);
+  EXPECT_EQ(selector.AddFrame(step, cov, 100, false), KeyframeReason::kNone);  // busy
+  EXPECT_EQ(selector.AddFrame(step, cov, 100, true), KeyframeReason::kMappingIdle);
+  for (int u = 1; u <= 10; ++u)  // at rest: nothing new to map
+    ASSERT_EQ(selector.AddFrame(SE3(), cov, 100, true), KeyframeReason::kNone) << "u=" << u;
+  EXPECT_EQ(selector.AddFrame(step, cov, 100, true), KeyframeReason::kMappingIdle);
+  EXPECT_STREQ(KeyframeReasonName(KeyframeReason::kMappingIdle), "mapping_idle");
+
+  opt.idle_min_frames = 0;  // off
+  KeyframeSelector off(opt);
+  off.AddFrame(SE3(), cov, 100, true);
+  for (int u = 1; u <= 20; ++u)
+    ASSERT_EQ(off.AddFrame(step, cov, 100, true), KeyframeReason::kNone) << "u=" << u;
+}
+
 TEST(KeyframeSelector, InvalidInputForcesAKeyframeWithoutNaN) {
   KeyframeSelector selector(KeyframeSelectorOptions{});
   const Matrix6d cov = Diag(1e-3, 1e-3);
@@ -340,6 +367,9 @@ TEST(KeyframeSelector, OptionsAreValidated) {
   opt = KeyframeSelectorOptions();
   opt.max_rotation_deg = 0.0;
   EXPECT_EQ(opt.Validate(), "max_rotation_deg=0 must be in (0, 180]");
+  opt = KeyframeSelectorOptions();
+  opt.idle_min_frames = -1;
+  EXPECT_EQ(opt.Validate(), "idle_min_frames=-1 must be in [0, 100000]");
 }
 
 }  // namespace

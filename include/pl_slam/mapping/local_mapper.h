@@ -148,6 +148,10 @@ class LocalMapper {
   /// Blocks until every queued keyframe has been processed and a running global bundle
   /// adjustment has been merged.
   void Flush();
+  /// True when a keyframe submitted now would be processed at once: no keyframe queued or in
+  /// progress (a global bundle adjustment on its helper thread does not count). Always true
+  /// in sequential mode.
+  bool Idle() const;
   /// Discards queued keyframes, aborts a running global bundle adjustment and waits for the
   /// keyframe in progress (before a reset).
   void Clear();

@@ -26,6 +26,12 @@ struct KeyframeSelectorOptions {
   /// Keyframe at the latest this many frames after the last one (the map must keep up even
   /// when the estimates are very certain, e.g. a slow camera in front of a textured wall).
   int max_frames = 30;
+  /// When local mapping is idle (the caller says so per frame), a keyframe this many frames
+  /// after the last one, once the camera has moved (min_translation / min_rotation_deg), as
+  /// ORB-SLAM does: the map takes as many keyframes as mapping can process and culling removes
+  /// the redundant ones later (docs/BENCHMARKS.md, eleventh session). 0 = off. Without mapping
+  /// (visual odometry alone) it never fires.
+  int idle_min_frames = 1;
   /// Keyframe when the current frame has fewer point + line inliers than this: the next frames
   /// would have too little to track against the old keyframe.
   int min_inliers = 40;
@@ -53,6 +59,7 @@ enum class KeyframeReason {
   kFewInliers,   ///< fewer inliers than options.min_inliers
   kLargeMotion,  ///< translation or rotation since the keyframe above the limits
   kMaxFrames,    ///< options.max_frames frames since the keyframe
+  kMappingIdle,  ///< local mapping idle and options.idle_min_frames frames since the keyframe
   kInvalidInput  ///< non-finite increment, or covariance not finite and positive definite
 };
 
@@ -85,7 +92,8 @@ class KeyframeSelector {
   ///   than guessed. T_kf_cur and its covariance are then left as they were (up to the
   ///   previous frame) and no NaN reaches the decision.
   /// - Otherwise the increment is chained and, in order: kFewInliers, kLargeMotion, kMaxFrames,
-  ///   then kEntropy (only from min_frames frames after the keyframe). The entropy test is the
+  ///   kMappingIdle (when `mapping_idle`), then kEntropy (only from min_frames frames after the
+  ///   keyframe). The entropy test is the
   ///   paper's alpha = h(kf, cur) / h(kf, kf + 1) < entropy_ratio, evaluated in the equivalent
   ///   form h(kf, cur) - h(kf, kf + 1) > (1 - entropy_ratio) |h(kf, kf + 1)|. Both are identical
   ///   when h(kf, kf + 1) < 0 (geometric-mean standard deviation below ~0.24 m / rad, i.e.
@@ -97,7 +105,8 @@ class KeyframeSelector {
   /// After a keyframe decision T_kf_cur() / covariance_kf_cur() still describe the motion from
   /// the old keyframe to this (new) keyframe -- what local mapping refines -- and the next
   /// AddFrame restarts the chain from this frame.
-  KeyframeReason AddFrame(const SE3& T_prev_cur, const Matrix6d& cov_prev_cur, int inliers);
+  KeyframeReason AddFrame(const SE3& T_prev_cur, const Matrix6d& cov_prev_cur, int inliers,
+                          bool mapping_idle = false);
 
   /// Paper's alpha for the last frame, h(kf, cur) / h(kf, kf + 1); 1 when undefined (first
   /// frames, invalid input, h(kf, kf + 1) == 0).
