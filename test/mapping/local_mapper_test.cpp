@@ -120,17 +120,19 @@ TEST(LocalMapperTest, MappingBeatsVisualOdometryAlone) {
   EXPECT_EQ(without.counts.keyframes, 0u);
 }
 
-// Keyframes whenever local mapping is idle (tracker.keyframes.idle_min_frames, ORB-SLAM's rule):
-// in sequential mode mapping is always idle, so every frame that moved is proposed, and culling
-// thins them later. On the fast turn that gives more keyframes and a lower error than the
-// entropy and safety triggers alone; visual odometry alone (no mapping) is not affected.
+// Keyframes whenever local mapping is idle (tracker.keyframes.idle_min_frames, ORB-SLAM's rule,
+// off by default): in sequential mode mapping is always idle, so every frame that moved is
+// proposed, and culling thins them later. On the fast turn that gives more keyframes and a
+// lower error than the entropy and safety triggers alone; visual odometry alone (no mapping)
+// is not affected.
 TEST(LocalMapperTest, KeyframesWhenMappingIsIdle) {
   const auto kFastTurn = sim::SceneKind::kFastTurn;
   constexpr int kFrames = 200;
   SystemOptions o = Sequential();
   o.loop.enabled = false;
+  EXPECT_EQ(o.tracker.keyframes.idle_min_frames, 0);  // the default: off
   SystemOptions off = o;
-  off.tracker.keyframes.idle_min_frames = 0;
+  o.tracker.keyframes.idle_min_frames = 1;
   const RunOutcome idle = RunSystem(o, kFrames, kFastTurn);
   const RunOutcome triggers_only = RunSystem(off, kFrames, kFastTurn);
   std::cout << "fast_turn: keyframes when mapping is idle " << idle.ate * 1e3 << " mm, "

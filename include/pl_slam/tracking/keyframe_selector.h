@@ -29,9 +29,10 @@ struct KeyframeSelectorOptions {
   /// When local mapping is idle (the caller says so per frame), a keyframe this many frames
   /// after the last one, once the camera has moved (min_translation / min_rotation_deg), as
   /// ORB-SLAM does: the map takes as many keyframes as mapping can process and culling removes
-  /// the redundant ones later (docs/BENCHMARKS.md, eleventh session). 0 = off. Without mapping
-  /// (visual odometry alone) it never fires.
-  int idle_min_frames = 1;
+  /// the redundant ones later. 0 = off (the default: measured better on some sequences and
+  /// worse on others, with twice the memory; docs/BENCHMARKS.md, eleventh session). Without
+  /// mapping (visual odometry alone) it never fires.
+  int idle_min_frames = 0;
   /// Keyframe when the current frame has fewer point + line inliers than this: the next frames
   /// would have too little to track against the old keyframe.
   int min_inliers = 40;
