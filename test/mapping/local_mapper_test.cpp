@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <map>
+#include <string>
 #include <vector>
 
 #include "pl_slam/eval/evaluation.h"
@@ -193,45 +194,35 @@ TEST(LocalMapperTest, ThreadedModeProcessesEveryAcceptedKeyframe) {
   EXPECT_EQ(run.stats.thread_nice, std::min(19, ThreadNiceValue() + 10));  // the default
 }
 
+/// The system refuses `o` with a ConfigError naming `key_value` (e.g. "mapping.window=1").
+void ExpectRefused(const SystemOptions& o, const std::string& key_value) {
+  try {
+    SlamSystem system(Room(1).camera, o);
+    ADD_FAILURE() << key_value << " accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find(key_value), std::string::npos) << e.what();
+  }
+}
+
 TEST(LocalMapperTest, InvalidOptionsAreRefusedByName) {
-  const Frames& data = Room(1);
   SystemOptions o;
   o.mapping.window = 1;
-  try {
-    SlamSystem system(data.camera, o);
-    FAIL() << "window=1 accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("mapping.window=1"), std::string::npos) << e.what();
-  }
+  ExpectRefused(o, "mapping.window=1");
   o = SystemOptions();
   o.mapping.ba.max_iterations = 0;
-  EXPECT_THROW(SlamSystem(data.camera, o), ConfigError);
+  EXPECT_THROW(SlamSystem(Room(1).camera, o), ConfigError);
   o = SystemOptions();
   o.mapping.cull_keep_newest = -1;
-  try {
-    SlamSystem system(data.camera, o);
-    FAIL() << "cull_keep_newest=-1 accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("mapping.cull_keep_newest=-1"), std::string::npos)
-        << e.what();
-  }
+  ExpectRefused(o, "mapping.cull_keep_newest=-1");
   o = SystemOptions();
   o.mapping.thread_niceness = 20;
-  try {
-    SlamSystem system(data.camera, o);
-    FAIL() << "thread_niceness=20 accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("mapping.thread_niceness=20"), std::string::npos)
-        << e.what();
-  }
+  ExpectRefused(o, "mapping.thread_niceness=20");
   o = SystemOptions();
   o.loop.thread_niceness = -1;
-  try {
-    SlamSystem system(data.camera, o);
-    FAIL() << "loop.thread_niceness=-1 accepted";
-  } catch (const ConfigError& e) {
-    EXPECT_NE(std::string(e.what()).find("loop.thread_niceness=-1"), std::string::npos) << e.what();
-  }
+  ExpectRefused(o, "loop.thread_niceness=-1");
+  o = SystemOptions();
+  o.tracker.keyframes.idle_min_frames = -1;
+  ExpectRefused(o, "tracker.keyframes.idle_min_frames=-1");
 }
 
 }  // namespace
