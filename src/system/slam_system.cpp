@@ -234,9 +234,11 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     }
   }
 
-  // Keyframes whenever local mapping can take them (tracker.keyframes.idle_min_frames).
-  if (s.mapper && !s.localization_only) s.tracker->SetMappingIdle(s.mapper->Idle());
-  TrackerResult r = s.tracker->Track(frame);
+  // Keyframes whenever local mapping can take them (tracker.keyframes.idle_min_frames); the
+  // mapper's lock is only taken when that rule is on.
+  const bool mapping_idle = s.mapper && !s.localization_only &&
+                            s.options.tracker.keyframes.idle_min_frames > 0 && s.mapper->Idle();
+  TrackerResult r = s.tracker->Track(frame, mapping_idle);
   {
     std::lock_guard<std::mutex> lock(s.features_mutex);
     s.last_features = s.tracker->last_features();

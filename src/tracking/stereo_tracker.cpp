@@ -3,7 +3,6 @@
 #include <chrono>
 #include <cmath>
 #include <sstream>
-#include <utility>
 
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
@@ -80,7 +79,6 @@ struct StereoTracker::Impl {
   LineDetector line_detector;
   KeyframeSelector selector;
   bool use_points = true, use_lines = true;
-  bool mapping_idle = false;  // SetMappingIdle: for the next Track() only
 
   bool has_previous = false;
   bool initialized = false;
@@ -222,11 +220,8 @@ void StereoTracker::Relocalized(const SE3& T_w_c) {
   s.has_keyframe = false;
 }
 
-void StereoTracker::SetMappingIdle(bool idle) { impl_->mapping_idle = idle; }
-
-TrackerResult StereoTracker::Track(const StereoFrame& frame) {
+TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) {
   Impl& s = *impl_;
-  const bool mapping_idle = std::exchange(s.mapping_idle, false);
   TrackerResult result;
   result.T_w_c = s.T_w_c;
 

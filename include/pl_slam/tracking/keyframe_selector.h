@@ -94,14 +94,13 @@ class KeyframeSelector {
   ///   previous frame) and no NaN reaches the decision.
   /// - Otherwise the increment is chained and, in order: kFewInliers, kLargeMotion, kMaxFrames,
   ///   kMappingIdle (when `mapping_idle`), then kEntropy (only from min_frames frames after the
-  ///   keyframe). The entropy test is the
-  ///   paper's alpha = h(kf, cur) / h(kf, kf + 1) < entropy_ratio, evaluated in the equivalent
-  ///   form h(kf, cur) - h(kf, kf + 1) > (1 - entropy_ratio) |h(kf, kf + 1)|. Both are identical
-  ///   when h(kf, kf + 1) < 0 (geometric-mean standard deviation below ~0.24 m / rad, i.e.
-  ///   every usable estimate): entropies are negative, accumulating uncertainty raises h
-  ///   towards 0 and alpha falls. When h(kf, kf + 1) >= 0 the paper's ratio would rise instead
-  ///   and never fire; the difference form still fires once the entropy has grown by that
-  ///   margin.
+  ///   keyframe). The entropy test is the paper's alpha = h(kf, cur) / h(kf, kf + 1) <
+  ///   entropy_ratio, evaluated in the equivalent form h(kf, cur) - h(kf, kf + 1) > (1 -
+  ///   entropy_ratio) |h(kf, kf + 1)|. Both are identical when h(kf, kf + 1) < 0 (geometric-mean
+  ///   standard deviation below ~0.24 m / rad, i.e. every usable estimate): entropies are negative,
+  ///   accumulating uncertainty raises h towards 0 and alpha falls. When h(kf, kf + 1) >= 0 the
+  ///   paper's ratio would rise instead and never fire; the difference form still fires once the
+  ///   entropy has grown by that margin.
   ///
   /// After a keyframe decision T_kf_cur() / covariance_kf_cur() still describe the motion from
   /// the old keyframe to this (new) keyframe -- what local mapping refines -- and the next

@@ -88,11 +88,8 @@ class StereoTracker {
   ~StereoTracker();
 
   /// Tracks one rectified stereo frame (CV_8UC1, camera size; checked by the caller).
-  TrackerResult Track(const StereoFrame& frame);
-
-  /// Whether local mapping is idle, for the next Track() only (keyframes.idle_min_frames);
-  /// without a call, it is not.
-  void SetMappingIdle(bool idle);
+  /// `mapping_idle`: local mapping would take a keyframe at once (keyframes.idle_min_frames).
+  TrackerResult Track(const StereoFrame& frame, bool mapping_idle = false);
 
   /// Forgets the previous frame: the next frame restarts at the identity.
   void Reset();
