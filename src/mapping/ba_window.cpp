@@ -109,11 +109,14 @@ bool BuildBaWindowLocked(const Context& ctx, const std::vector<KeyframeId>& free
       BaLineObservation o;
       o.pose = it->second;
       o.line = static_cast<int>(i);
-      o.l = f.l;
+      o.s = f.s;
+      o.e = f.e;
       o.stereo = stereo && f.has_depth;
-      if (o.stereo)
-        o.l_right = LineThrough(ctx.camera.ProjectRight(f.P_c), ctx.camera.ProjectRight(f.Q_c));
-      if (o.l_right.head<2>().norm() == 0.0) o.stereo = false;
+      if (o.stereo) {
+        o.s_right = ctx.camera.ProjectRight(f.P_c);
+        o.e_right = ctx.camera.ProjectRight(f.Q_c);
+        if (o.s_right == o.e_right) o.stereo = false;
+      }
       o.sqrt_info = line_info * PointSqrtInfo(ctx, f.octave);
       problem.line_obs.push_back(o);
       w.line_obs_ids.emplace_back(w.line_ids[i], k);

@@ -28,6 +28,9 @@ std::string BundleAdjustmentOptions::Validate() const {
   if (e.empty()) e = CheckRange("num_threads", num_threads, 1, 64);
   if (e.empty() && schur != "sparse" && schur != "dense")
     e = "schur='" + schur + "' must be sparse or dense";
+  if (e.empty() && line_residual != "auto" && line_residual != "observed" &&
+      line_residual != "projected")
+    e = "line_residual='" + line_residual + "' must be auto, observed or projected";
   return e;
 }
 
@@ -55,19 +58,37 @@ Evaluation EvaluatePoint(const StereoCamera& cam, const SE3& T_c_w, const Eigen:
 }
 
 Evaluation EvaluateLine(const StereoCamera& cam, const SE3& T_c_w, const Eigen::Vector3d& P_w,
-                        const Eigen::Vector3d& Q_w, const BaLineObservation& o) {
+                        const Eigen::Vector3d& Q_w, const BaLineObservation& o, bool observed) {
   Evaluation ev;
   const Eigen::Vector3d X[2] = {T_c_w * P_w, T_c_w * Q_w};
+  double s = 0.0;
+  if (observed) {
+    // Only the line's position matters: part of it in front of the camera is enough.
+    ev.depth = std::max(X[0].z(), X[1].z());
+    if (!(ev.depth > 0.0)) return ev;
+    const int views = o.stereo ? 2 : 1;
+    for (int view = 0; view < views; ++view) {
+      const Eigen::Vector3d shift(view == 0 ? 0.0 : cam.baseline, 0.0, 0.0);
+      const double cx = view == 0 ? cam.cx : cam.cx + cam.doffs;
+      const Eigen::Vector3d m = (X[0] - shift).cross(X[1] - shift);
+      for (const Eigen::Vector2d& px : {view == 0 ? o.s : o.s_right, view == 0 ? o.e : o.e_right}) {
+        const double d = PixelToProjectedLine(m, px, cam.fx, cam.fy, cx, cam.cy, nullptr);
+        s += d * d;
+      }
+    }
+    ev.chi2 = s * o.sqrt_info * o.sqrt_info;
+    return ev;
+  }
   ev.depth = std::min(X[0].z(), X[1].z());
   if (!(ev.depth > 0.0)) return ev;
-  double s = 0.0;
+  const Eigen::Vector3d l = LineThrough(o.s, o.e), l_right = LineThrough(o.s_right, o.e_right);
   for (const Eigen::Vector3d& x : X) {
     const Eigen::Vector2d uv = cam.Project(x);
-    const double d = o.l.dot(Eigen::Vector3d(uv.x(), uv.y(), 1.0));
+    const double d = l.dot(Eigen::Vector3d(uv.x(), uv.y(), 1.0));
     s += d * d;
     if (o.stereo) {
       const Eigen::Vector2d uvr = cam.ProjectRight(x);
-      const double dr = o.l_right.dot(Eigen::Vector3d(uvr.x(), uvr.y(), 1.0));
+      const double dr = l_right.dot(Eigen::Vector3d(uvr.x(), uvr.y(), 1.0));
       s += dr * dr;
     }
   }
@@ -141,6 +162,7 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   const double huber_point_stereo = std::sqrt(options.point_chi2_stereo);
   const double huber_line_mono = std::sqrt(options.line_chi2_mono);
   const double huber_line_stereo = std::sqrt(options.line_chi2_stereo);
+  const bool observed_lines = options.line_residual == "observed";
   auto use_pose = [&](int i) {
     if (pose_used[i]) return;
     pose_used[i] = 1;
@@ -171,13 +193,16 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
     double* PQ = line_params + 6 * o.line;
     ceres::CostFunction* cost;
     ceres::LossFunction* loss;
-    if (o.stereo) {
-      cost = new StereoLineCost(camera, o.l, o.l_right, o.sqrt_info);
-      loss = new ceres::HuberLoss(huber_line_stereo);
-    } else {
-      cost = new MonoLineCost(camera, o.l, o.l, o.sqrt_info);
-      loss = new ceres::HuberLoss(huber_line_mono);
-    }
+    if (observed_lines)
+      cost = o.stereo ? static_cast<ceres::CostFunction*>(new StereoEndpointLineCost(
+                            camera, o.s, o.e, o.s_right, o.e_right, o.sqrt_info))
+                      : new MonoEndpointLineCost(camera, o.s, o.e, o.s, o.e, o.sqrt_info);
+    else if (o.stereo)
+      cost = new StereoLineCost(camera, LineThrough(o.s, o.e), LineThrough(o.s_right, o.e_right),
+                                o.sqrt_info);
+    else
+      cost = new MonoLineCost(camera, LineThrough(o.s, o.e), LineThrough(o.s, o.e), o.sqrt_info);
+    loss = new ceres::HuberLoss(o.stereo ? huber_line_stereo : huber_line_mono);
     line_blocks[k] = ceres_problem.AddResidualBlock(cost, loss, pose_params[o.pose].data(), PQ);
     if (!ordering->IsMember(PQ)) {
       ordering->AddElementToGroup(PQ, 0);
@@ -227,10 +252,10 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
     for (size_t k = 0; k < p.line_obs.size(); ++k) {
       if (!line_blocks[k]) continue;
       const BaLineObservation& o = p.line_obs[k];
-      const Evaluation ev =
-          EvaluateLine(camera, SE3FromParams(pose_params[o.pose].data()),
-                       Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line),
-                       Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line + 3), o);
+      const Evaluation ev = EvaluateLine(
+          camera, SE3FromParams(pose_params[o.pose].data()),
+          Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line),
+          Eigen::Map<const Eigen::Vector3d>(line_params + 6 * o.line + 3), o, observed_lines);
       const double chi2_max =
           (o.stereo ? options.line_chi2_stereo : options.line_chi2_mono) * sigma2;
       summary.line_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;

@@ -92,12 +92,18 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const SystemOptions& options)
   if (!opt_error.empty()) throw ConfigError(opt_error);
   impl_->camera = camera;
   impl_->options = options;
+  // mapping.ba.line_residual=auto: the observed-endpoint form in lines-only mode, where it
+  // measured better on every sequence, the paper's form otherwise (docs/BENCHMARKS.md,
+  // twelfth session).
+  std::string& line_residual = impl_->options.mapping.ba.line_residual;
+  if (line_residual == "auto")
+    line_residual = options.tracker.mode == FeatureMode::kLines ? "observed" : "projected";
   impl_->tracker = std::make_unique<StereoTracker>(camera, options.tracker);
   impl_->front_end = FrontEndOf(options.tracker);
   impl_->map = std::make_unique<Map>(options.mapping.map);
   if (options.mapping.enabled) {
-    impl_->mapper =
-        std::make_unique<LocalMapper>(camera, options.mapping, impl_->front_end, impl_->map.get());
+    impl_->mapper = std::make_unique<LocalMapper>(camera, impl_->options.mapping, impl_->front_end,
+                                                  impl_->map.get());
     const LoopClosingOptions& lo = options.loop;
     if ((lo.enabled || lo.relocalize) && lo.vocabulary.empty()) {
       PL_LOG_WARN("loop.vocabulary is empty: loop closing and relocalisation are off");

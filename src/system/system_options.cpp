@@ -211,6 +211,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.ba.line_chi2_stereo", &ba.line_chi2_stereo, "line outlier threshold, 4 dof");
   t.Add("mapping.ba.line_extent_weight", &ba.line_extent_weight,
         "holds line endpoints along their line in BA, per metre (0 = off)");
+  t.Add("mapping.ba.line_residual", &ba.line_residual,
+        "line residual: projected (paper eq. 6), observed (observed endpoints to projected "
+        "line) or auto (observed in lines mode)");
   t.Add("mapping.ba.min_depth", &ba.min_depth, "observations closer than this (m) are outliers");
   t.Add("mapping.ba.num_threads", &ba.num_threads, "Ceres threads");
   t.Add("mapping.ba.schur", &ba.schur, "reduced camera system solver: sparse or dense");

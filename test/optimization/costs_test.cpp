@@ -136,6 +136,69 @@ TEST(LineCostTest, JacobiansMatchCentralDifferences) {
   }
 }
 
+TEST(EndpointLineCostTest, JacobiansMatchCentralDifferences) {
+  std::mt19937 rng(13);
+  const StereoCamera cam = Camera();
+  for (int trial = 0; trial < 30; ++trial) {
+    const SE3 T_c_w = RandomPose(&rng);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    Eigen::Vector3d P_c(u(rng), u(rng), 2.5 + u(rng)), Q_c(u(rng), u(rng), 2.5 + u(rng));
+    const Eigen::Vector2d s = cam.Project(P_c) + Eigen::Vector2d(1, 2), e = cam.Project(Q_c);
+    const Eigen::Vector2d sr = cam.ProjectRight(P_c),
+                          er = cam.ProjectRight(Q_c) + Eigen::Vector2d(0, 3);
+    // A third of the trials: the landmark's start point lies behind the camera (its line is
+    // still in view), which the form is meant to handle.
+    const Eigen::Vector3d d = P_c - Q_c;
+    if (trial % 3 == 0 && std::abs(d.z()) > 0.2) P_c = Q_c - 2.0 * Q_c.z() * d / d.z();
+    MonoEndpointLineCost mono(cam, s, e, s, e, 1.3);
+    StereoEndpointLineCost stereo(cam, s, e, sr, er, 1.3);
+    std::vector<double> PQ = Vec(T_c_w.inverse() * P_c);
+    for (double v : Vec(T_c_w.inverse() * Q_c)) PQ.push_back(v);
+    EXPECT_LT(JacobianError(mono, {PoseParams(T_c_w), PQ}), 1e-5) << "trial " << trial;
+    EXPECT_LT(JacobianError(stereo, {PoseParams(T_c_w), PQ}), 1e-5) << "trial " << trial;
+  }
+}
+
+// The observed-endpoint form measures pixel distances of the observed endpoints to the
+// projected 3D line, whatever part of the line the landmark's endpoints span; the paper's form
+// (LineCost) changes with that span and drops the observation once an endpoint is behind.
+TEST(EndpointLineCostTest, ResidualsIgnoreWhereTheLandmarkEndsAlongItsLine) {
+  const StereoCamera cam = Camera();
+  const Eigen::Vector3d P_c(-0.6, 0.4, 2.0), Q_c(-0.6, 0.4, 9.0);  // a wall edge receding
+  const Eigen::Vector2d s = cam.Project(Eigen::Vector3d(-0.6, 0.4, 3.0));
+  const Eigen::Vector2d e = cam.Project(Eigen::Vector3d(-0.6, 0.4, 6.0));
+  const Eigen::Vector2d sr = cam.ProjectRight(Eigen::Vector3d(-0.6, 0.4, 3.0));
+  const Eigen::Vector2d er = cam.ProjectRight(Eigen::Vector3d(-0.6, 0.4, 6.0));
+  const Eigen::Vector2d normal = Eigen::Vector2d(e - s).unitOrthogonal();
+  // The observed start is 1.5 px off the line, the rest exact.
+  StereoEndpointLineCost cost(cam, s + 1.5 * normal, e, sr, er, 2.0);
+  const std::vector<double> pose = PoseParams(SE3());
+  auto eval = [&](const ceres::CostFunction& c, const Eigen::Vector3d& P,
+                  const Eigen::Vector3d& Q) {
+    std::vector<double> PQ = Vec(P);
+    for (double v : Vec(Q)) PQ.push_back(v);
+    const double* params[] = {pose.data(), PQ.data()};
+    Eigen::Vector4d r;
+    EXPECT_TRUE(c.Evaluate(params, r.data(), nullptr));
+    return r;
+  };
+  const Eigen::Vector4d r0 = eval(cost, P_c, Q_c);
+  EXPECT_NEAR(std::abs(r0(0)), 3.0, 1e-6);  // 1.5 px times sqrt_info 2
+  EXPECT_NEAR(r0.tail<3>().norm(), 0.0, 1e-9);
+  const Eigen::Vector3d d = (Q_c - P_c).normalized();
+  for (double slide : {-4.0, 0.7, 25.0}) {  // -4: the start point is 2 m behind the camera
+    const Eigen::Vector4d r = eval(cost, P_c + slide * d, Q_c + 1.5 * slide * d);
+    EXPECT_NEAR((r - r0).norm(), 0.0, 1e-6) << "slide " << slide;
+  }
+  // The paper's form: the same observation gives other residuals for another span, and none
+  // once the start point is behind the camera.
+  StereoLineCost paper(cam, LineThrough(s + 1.5 * normal, e), LineThrough(sr, er), 2.0);
+  EXPECT_GT((eval(paper, P_c + 0.7 * d, Q_c) - eval(paper, P_c, Q_c)).norm(), 0.1);
+  EXPECT_EQ(eval(paper, P_c - 4.0 * d, Q_c).norm(), 0.0);
+  // Both endpoints behind the camera: no residual.
+  EXPECT_EQ(eval(cost, P_c - 4.0 * d, P_c - 3.0 * d).norm(), 0.0);
+}
+
 // With the right principal point offset (doffs), the right-image residuals of the exact
 // observations are zero: the costs project into the right image as the camera model does.
 TEST(StereoCostsTest, RightImageResidualsFollowThePrincipalPointOffset) {
@@ -156,6 +219,10 @@ TEST(StereoCostsTest, RightImageResidualsFollowThePrincipalPointOffset) {
   const double* line_params[] = {pose.data(), PQ.data()};
   ASSERT_TRUE(line.Evaluate(line_params, r, nullptr));
   for (int k = 0; k < 4; ++k) EXPECT_NEAR(r[k], 0.0, 1e-9) << "row " << k;
+  StereoEndpointLineCost endpoints(cam, cam.Project(P_c), cam.Project(Q_c), cam.ProjectRight(P_c),
+                                   cam.ProjectRight(Q_c), 1.0);
+  ASSERT_TRUE(endpoints.Evaluate(line_params, r, nullptr));
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(r[k], 0.0, 1e-9) << "endpoint form, row " << k;
   // The same observations under a camera without the offset are 2.5 px off on the right.
   StereoPointCost plain(Camera(), cam.Project(P_c), cam.ProjectRight(P_c).x(), 1.0);
   ASSERT_TRUE(plain.Evaluate(point_params, r, nullptr));

@@ -38,6 +38,12 @@ struct BundleAdjustmentOptions {
   /// Weight (per metre) of LineExtentCost, which holds each line landmark's endpoints where
   /// they are along the line (the observations do not constrain that direction); 0 = off.
   double line_extent_weight = 5.0;
+  /// Line residual: "projected" (distances of the projected 3D endpoints to the observed line,
+  /// the paper's eq. 6, LineCost), "observed" (distances of the observed segment's endpoints to
+  /// the projected 3D line, EndpointLineCost), or "auto": observed in lines-only tracking,
+  /// projected otherwise (SlamSystem resolves it; here auto means projected). See
+  /// docs/BENCHMARKS.md, twelfth session.
+  std::string line_residual = "auto";
   int num_threads = 1;  ///< Ceres threads (tracking keeps the other core)
   /// Schur complement solver for the reduced camera system: "sparse" (SuiteSparse Cholesky)
   /// or "dense" (Eigen; can be faster for the few tens of keyframes of a local window).
@@ -69,9 +75,10 @@ struct BaLineObservation {
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
   int pose = 0;
   int line = 0;
-  Eigen::Vector3d l = Eigen::Vector3d::Zero();        ///< normalised left-image line
-  bool stereo = false;                                ///< l_right is measured
-  Eigen::Vector3d l_right = Eigen::Vector3d::Zero();  ///< normalised right-image line
+  /// Observed segment: endpoints in the left image, and (stereo) their right-image matches.
+  Eigen::Vector2d s = Eigen::Vector2d::Zero(), e = Eigen::Vector2d::Zero();
+  bool stereo = false;  ///< s_right, e_right are measured
+  Eigen::Vector2d s_right = Eigen::Vector2d::Zero(), e_right = Eigen::Vector2d::Zero();
   double sqrt_info = 1.0;
 };
 

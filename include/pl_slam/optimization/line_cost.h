@@ -45,6 +45,54 @@ using StereoLineCost = LineCost<4>;
 extern template class LineCost<2>;
 extern template class LineCost<4>;
 
+/// The other form of the line residual: signed pixel distances of the OBSERVED segment's
+/// endpoints (s, e) to the projection of the landmark's infinite 3D line, scaled by sqrt_info;
+/// the stereo form adds the right image (s_right, e_right: the right-image points of the
+/// stereo-matched segment's endpoints). Unlike LineCost it does not depend on where the landmark's
+/// endpoints lie along their line, so an observation whose view covers another part of a long
+/// line (a corridor wall passing by) keeps its weight, and an endpoint near or behind the camera
+/// neither drops the observation nor gives it the leverage of a near point. The projected line
+/// is the plane through the camera centre and both endpoints, m = P_c x Q_c, which stays valid
+/// when one endpoint is behind the camera. Gives zero residuals and Jacobians when both endpoints
+/// are closer than min_depth or the line passes through the camera centre.
+/// Parameter blocks as LineCost.
+template <int kResiduals>
+class EndpointLineCost final : public ceres::SizedCostFunction<kResiduals, 7, 6> {
+  static_assert(kResiduals == 2 || kResiduals == 4, "2 (left image) or 4 (stereo) residuals");
+
+ public:
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  /// `s_right` and `e_right` are ignored for the 2-residual (monocular) form.
+  EndpointLineCost(const StereoCamera& camera, const Eigen::Vector2d& s, const Eigen::Vector2d& e,
+                   const Eigen::Vector2d& s_right, const Eigen::Vector2d& e_right, double sqrt_info,
+                   double min_depth = 1e-3)
+      : camera_(camera),
+        obs_{s, e, s_right, e_right},
+        sqrt_info_(sqrt_info),
+        min_depth_(min_depth) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  StereoCamera camera_;
+  Eigen::Vector2d obs_[4];  // left s, e, right s, e
+  double sqrt_info_;
+  double min_depth_;
+};
+
+using MonoEndpointLineCost = EndpointLineCost<2>;
+using StereoEndpointLineCost = EndpointLineCost<4>;
+
+extern template class EndpointLineCost<2>;
+extern template class EndpointLineCost<4>;
+
+/// Signed pixel distance of pixel `px` to the image of the 3D line through P_c and Q_c (camera
+/// frame of a camera with focal lengths fx, fy and principal point cx, cy), and its gradient
+/// with respect to m = P_c x Q_c in `d_m` (may be null). Zero when m has no image direction.
+double PixelToProjectedLine(const Eigen::Vector3d& m, const Eigen::Vector2d& px, double fx,
+                            double fy, double cx, double cy, Eigen::Vector3d* d_m);
+
 /// Gauge of a line landmark's extent: residuals w * d . (P - P0) and w * d . (Q - Q0), where
 /// d is the unit direction of (Q0 - P0). Only the endpoints' positions ALONG the line are held
 /// (to where the observations put them); across the line they stay free, so the observations
