@@ -22,6 +22,7 @@
 #include "mapping_steps.h"
 #include "pl_slam/eval/alignment.h"
 #include "pl_slam/eval/evaluation.h"
+#include "pl_slam/optimization/line_cost.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
 
@@ -175,23 +176,25 @@ int main(int argc, char** argv) {
       double sl = 0, sr = 0;
       int nl = 0, nrl = 0;
       for (const auto& ob : p.line_obs) {
-        const double angle = std::atan2(std::abs(ob.l.x()), std::abs(ob.l.y())) * 180 / M_PI;
+        const Eigen::Vector3d l = LineThrough(ob.s, ob.e);
+        const Eigen::Vector3d l_right = LineThrough(ob.s_right, ob.e_right);
+        const double angle = std::atan2(std::abs(l.x()), std::abs(l.y())) * 180 / M_PI;
         if (std::min(3, static_cast<int>(angle / 22.5)) != bin) continue;
         const SE3 T_c_w = p.poses[ob.pose].T_w_c.inverse();
         for (const Eigen::Vector3d& X : {T_c_w * p.line_P[ob.line], T_c_w * p.line_Q[ob.line]}) {
           if (X.z() < 0.1) continue;
           // Signed toward the image centre.
           const Eigen::Vector2d u = cam.Project(X);
-          const double d = ob.l.dot(Eigen::Vector3d(u.x(), u.y(), 1.0));
+          const double d = l.dot(Eigen::Vector3d(u.x(), u.y(), 1.0));
           if (std::abs(d) < 2.0) {
-            sl += ob.l.dot(centre) > 0 ? d : -d;
+            sl += l.dot(centre) > 0 ? d : -d;
             ++nl;
           }
           if (!ob.stereo) continue;
           const Eigen::Vector2d ur = cam.ProjectRight(X);
-          const double d_r = ob.l_right.dot(Eigen::Vector3d(ur.x(), ur.y(), 1.0));
+          const double d_r = l_right.dot(Eigen::Vector3d(ur.x(), ur.y(), 1.0));
           if (std::abs(d_r) < 2.0) {
-            sr += ob.l_right.dot(centre) > 0 ? d_r : -d_r;
+            sr += l_right.dot(centre) > 0 ? d_r : -d_r;
             ++nrl;
           }
         }
