@@ -12,8 +12,11 @@
 //     -I /usr/include/opencv4 tools/experiments/ba_floor.cpp -o /tmp/ba_floor \
 //     -L.ws/devel/lib -lpl_slam_core -lceres -lglog $(pkg-config --libs opencv4) \
 //     -Wl,-rpath,$PWD/.ws/devel/lib
-// Run: /tmp/ba_floor room|corridor|fast_turn [--loops N] [--no-loop] [--no-followup]
-//   [--gt-residuals]
+// Run: /tmp/ba_floor room|corridor|fast_turn|DATASET_FOLDER [--loops N] [--no-loop]
+//   [--no-followup] [--gt-residuals] [--max-frames N] [--doffs PX] [--outlier-sigma S]
+// A dataset folder (EuRoC or KITTI layout, as pl_slam_offline reads) replaces the synthetic
+// scene; its ground truth is taken frame by frame. Each solve also prints the error of the
+// consecutive keyframes' relative translation along the true motion (mm, + = too long).
 #include <cmath>
 #include <cstring>
 #include <iostream>
@@ -22,6 +25,7 @@
 #include "mapping_steps.h"
 #include "pl_slam/eval/alignment.h"
 #include "pl_slam/eval/evaluation.h"
+#include "pl_slam/io/stereo_source.h"
 #include "pl_slam/optimization/line_cost.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
@@ -49,6 +53,19 @@ double KeyframeAte(const Poses& T_w_c, const Poses& truth) {
   return rmse(pl_slam::eval::UmeyamaAlignment(a, b, false));
 }
 
+/// For consecutive keyframes: estimated minus true relative translation, along the true one.
+std::string AlongTravel(const Poses& T_w_c, const Poses& truth) {
+  std::string out;
+  for (size_t i = 0; i + 1 < T_w_c.size() && i < 12; ++i) {
+    const Eigen::Vector3d t_true = (truth[i].inverse() * truth[i + 1]).translation();
+    const Eigen::Vector3d t_est = (T_w_c[i].inverse() * T_w_c[i + 1]).translation();
+    if (t_true.norm() < 1e-9) continue;
+    out += " " + std::to_string(static_cast<int>(
+                     std::lround((t_est - t_true).dot(t_true.normalized()) * 1000.0)));
+  }
+  return out;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -60,6 +77,7 @@ int main(int argc, char** argv) {
   }
   sim::SequenceOptions so;
   const std::string scene = argv[1];
+  const bool synthetic = scene == "room" || scene == "corridor" || scene == "fast_turn";
   so.scene = scene == "corridor"    ? sim::SceneKind::kCorridor
              : scene == "fast_turn" ? sim::SceneKind::kFastTurn
                                     : sim::SceneKind::kRoom;
@@ -67,18 +85,37 @@ int main(int argc, char** argv) {
   o.mapping.threaded = false;
   o.loop.vocabulary = "vocabulary";  // run from the repository root
   bool gt_residuals = false;
+  size_t max_frames = 0;
+  double doffs = std::nan("");
   for (int i = 2; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--loops") && i + 1 < argc) so.loops = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--no-loop")) o.loop.enabled = false;
     if (!std::strcmp(argv[i], "--no-followup")) o.loop.global_ba_followup = 0;
     if (!std::strcmp(argv[i], "--gt-residuals")) gt_residuals = true;
+    if (!std::strcmp(argv[i], "--max-frames") && i + 1 < argc) max_frames = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--doffs") && i + 1 < argc) doffs = std::atof(argv[++i]);
+    if (!std::strcmp(argv[i], "--outlier-sigma") && i + 1 < argc)
+      o.mapping.ba.outlier_sigma = std::atof(argv[++i]);
   }
-  sim::SyntheticSequence seq(so);
-  Poses truth;  // in the map frame (the first camera's)
-  const SE3 inv0 = seq.ground_truth()[0].T_w_c.inverse();
-  for (const auto& s : seq.ground_truth()) truth.push_back(inv0 * s.T_w_c);
+  std::unique_ptr<StereoSource> source;
+  if (synthetic)
+    source = std::make_unique<sim::SyntheticSequence>(so);
+  else
+    source = OpenDatasetFolder(scene);
+  StereoCamera camera = source->camera();
+  if (!std::isnan(doffs)) camera.doffs = doffs;
+  const Trajectory& ground_truth = source->ground_truth();
+  if (ground_truth.empty()) {
+    std::cerr << "ba_floor: " << scene << " has no ground truth\n";
+    return 2;
+  }
+  Poses truth;  // in the map frame (the first camera's), one per frame
+  const SE3 inv0 = ground_truth[0].T_w_c.inverse();
+  for (const auto& s : ground_truth) truth.push_back(inv0 * s.T_w_c);
+  const size_t frames =
+      max_frames > 0 ? std::min(max_frames, ground_truth.size()) : ground_truth.size();
 
-  SlamSystem system(seq.camera(), o);
+  SlamSystem system(camera, o);
   auto map_ate = [&] {
     const MapSnapshot snap = system.map().Snapshot();
     Poses est, gt;
@@ -89,8 +126,9 @@ int main(int argc, char** argv) {
     return KeyframeAte(est, gt);
   };
   int global_bas = 0;
-  for (size_t i = 0; i < seq.size(); ++i) {
-    system.Process(seq.Render(i));
+  StereoFrame frame;
+  for (size_t i = 0; i < frames && source->Next(&frame); ++i) {
+    system.Process(frame);
     if (system.mapping_stats().global_bas != global_bas || i % 40 == 0) {
       global_bas = system.mapping_stats().global_bas;
       std::cout << "frame " << i << ", global BAs " << global_bas << ": keyframe ATE ";
@@ -99,16 +137,16 @@ int main(int argc, char** argv) {
   }
   system.Flush();
   std::vector<double> times;
-  for (const auto& s : seq.ground_truth()) times.push_back(s.t);
+  Trajectory used(ground_truth.begin(), ground_truth.begin() + frames);
+  for (const auto& s : used) times.push_back(s.t);
   std::cout << "frame ATE "
-            << eval::EvaluateTrajectory(system.trajectory(), seq.ground_truth(), times)
-                       .ate.translation.rmse *
+            << eval::EvaluateTrajectory(system.trajectory(), used, times).ate.translation.rmse *
                    1000.0
             << " mm\n";
 
   Map& map = const_cast<Map&>(system.map());  // the system is done with it
   mapping::Context ctx;
-  ctx.camera = seq.camera();
+  ctx.camera = camera;
   ctx.options = o.mapping;
   ctx.options.ba.max_iterations = 30;
   ctx.map = &map;
@@ -151,6 +189,15 @@ int main(int argc, char** argv) {
     Poses est;
     for (const auto& pose : p.poses) est.push_back(pose.T_w_c);
     std::cout << KeyframeAte(est, gt) << " mm\n";
+    if (from_truth) {
+      Poses before;
+      for (KeyframeId id : job.window.pose_ids) {
+        auto lock = map.Lock();
+        before.push_back(map.KeyframeLocked(id)->T_w_c);
+      }
+      std::cout << "  along travel, map before:" << AlongTravel(before, gt) << "\n";
+    }
+    std::cout << "  along travel, after:" << AlongTravel(est, gt) << "\n";
     if (!gt_residuals) continue;
     // Mean signed residuals at the ground-truth poses (landmarks optimised, |r| < 2 px).
     const StereoCamera& cam = ctx.camera;
