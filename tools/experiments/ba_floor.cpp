@@ -216,6 +216,31 @@ int main(int argc, char** argv) {
         ++nr;
       }
     }
+    // By depth (in baselines): mean radial residual (projection minus observation, along the
+    // direction from the principal point) and mean right-image residual of the stereo ones.
+    const double edges[] = {0.0, 10.0, 20.0, 40.0, 80.0, 1e9};
+    for (int bin = 0; bin < 5; ++bin) {
+      double radial = 0, right = 0;
+      int count = 0, count_right = 0;
+      for (const auto& ob : p.point_obs) {
+        const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
+        const double z = X.z() / cam.baseline;
+        if (X.z() < 0.1 || z < edges[bin] || z >= edges[bin + 1]) continue;
+        const Eigen::Vector2d e = cam.Project(X) - ob.uv;
+        if (e.norm() > 2.0) continue;
+        const Eigen::Vector2d from_centre = ob.uv - Eigen::Vector2d(cam.cx, cam.cy);
+        if (from_centre.norm() < 1.0) continue;
+        radial += e.dot(from_centre.normalized());
+        ++count;
+        if (ob.stereo) {
+          right += cam.ProjectRight(X).x() - ob.u_right;
+          ++count_right;
+        }
+      }
+      std::cout << "points " << edges[bin] << "-" << edges[bin + 1] << " baselines: " << count
+                << ", mean radial " << radial / std::max(count, 1) << "; stereo " << count_right
+                << ", mean right " << right / std::max(count_right, 1) << "\n";
+    }
     std::cout << "points: " << n << " observations, mean du " << du / n << " dv " << dv / n
               << "; right image " << nr << ", mean du " << dr / std::max(nr, 1) << "\n";
     const Eigen::Vector3d centre(cam.cx, cam.cy, 1.0);
