@@ -220,7 +220,7 @@ int main(int argc, char** argv) {
     // direction from the principal point) and mean right-image residual of the stereo ones.
     const double edges[] = {0.0, 10.0, 20.0, 40.0, 80.0, 1e9};
     for (int bin = 0; bin < 5; ++bin) {
-      double radial = 0, right = 0;
+      double radial = 0, radial2 = 0, right = 0;
       int count = 0, count_right = 0;
       for (const auto& ob : p.point_obs) {
         const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
@@ -230,16 +230,21 @@ int main(int argc, char** argv) {
         if (e.norm() > 2.0) continue;
         const Eigen::Vector2d from_centre = ob.uv - Eigen::Vector2d(cam.cx, cam.cy);
         if (from_centre.norm() < 1.0) continue;
-        radial += e.dot(from_centre.normalized());
+        const double r = e.dot(from_centre.normalized());
+        radial += r;
+        radial2 += r * r;
         ++count;
         if (ob.stereo) {
           right += cam.ProjectRight(X).x() - ob.u_right;
           ++count_right;
         }
       }
+      const double mean = radial / std::max(count, 1);
+      const double sd = std::sqrt(std::max(0.0, radial2 / std::max(count, 1) - mean * mean));
       std::cout << "points " << edges[bin] << "-" << edges[bin + 1] << " baselines: " << count
-                << ", mean radial " << radial / std::max(count, 1) << "; stereo " << count_right
-                << ", mean right " << right / std::max(count_right, 1) << "\n";
+                << ", mean radial " << mean << " +- " << sd / std::sqrt(std::max(count, 1))
+                << " (standard error); stereo " << count_right << ", mean right "
+                << right / std::max(count_right, 1) << "\n";
     }
     std::cout << "points: " << n << " observations, mean du " << du / n << " dv " << dv / n
               << "; right image " << nr << ", mean du " << dr / std::max(nr, 1) << "\n";
