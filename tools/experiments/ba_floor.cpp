@@ -14,6 +14,7 @@
 //     -Wl,-rpath,$PWD/.ws/devel/lib
 // Run: /tmp/ba_floor room|corridor|fast_turn|DATASET_FOLDER [--loops N] [--no-loop]
 //   [--no-followup] [--gt-residuals] [--max-frames N] [--doffs PX] [--outlier-sigma S]
+//   [--seed N] (the synthetic scene's image-noise seed, as seed_sweep.py's)
 // A dataset folder (EuRoC or KITTI layout, as pl_slam_offline reads) replaces the synthetic
 // scene; its ground truth is taken frame by frame. Each solve also prints the error of the
 // consecutive keyframes' relative translation along the true motion (mm, + = too long).
@@ -89,6 +90,7 @@ int main(int argc, char** argv) {
   double doffs = std::nan("");
   for (int i = 2; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--loops") && i + 1 < argc) so.loops = std::atoi(argv[++i]);
+    if (!std::strcmp(argv[i], "--seed") && i + 1 < argc) so.seed = std::atoi(argv[++i]);
     if (!std::strcmp(argv[i], "--no-loop")) o.loop.enabled = false;
     if (!std::strcmp(argv[i], "--no-followup")) o.loop.global_ba_followup = 0;
     if (!std::strcmp(argv[i], "--gt-residuals")) gt_residuals = true;
