@@ -193,10 +193,8 @@ int main(int argc, char** argv) {
     std::cout << KeyframeAte(est, gt) << " mm\n";
     if (from_truth) {
       Poses before;
-      for (KeyframeId id : job.window.pose_ids) {
-        auto lock = map.Lock();
-        before.push_back(map.KeyframeLocked(id)->T_w_c);
-      }
+      auto lock = map.Lock();
+      for (KeyframeId id : job.window.pose_ids) before.push_back(map.KeyframeLocked(id)->T_w_c);
       std::cout << "  along travel, map before:" << AlongTravel(before, gt) << "\n";
     }
     std::cout << "  along travel, after:" << AlongTravel(est, gt) << "\n";
@@ -205,48 +203,47 @@ int main(int argc, char** argv) {
     const StereoCamera& cam = ctx.camera;
     double du = 0, dv = 0, dr = 0;
     int n = 0, nr = 0;
+    // By depth (in baselines): mean radial residual (projection minus observation, along the
+    // direction from the principal point) and mean right-image residual of the stereo ones.
+    constexpr int kBins = 5;
+    const double edges[kBins + 1] = {0.0, 10.0, 20.0, 40.0, 80.0, 1e9};
+    double radial[kBins] = {}, radial2[kBins] = {}, right[kBins] = {};
+    int count[kBins] = {}, count_right[kBins] = {};
     for (const auto& ob : p.point_obs) {
       const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
       if (X.z() < 0.1) continue;
       const Eigen::Vector2d e = cam.Project(X) - ob.uv;
       if (e.norm() > 2.0) continue;
+      const double u_right_error = ob.stereo ? cam.ProjectRight(X).x() - ob.u_right : 0.0;
       du += e.x();
       dv += e.y();
       ++n;
       if (ob.stereo) {
-        dr += cam.ProjectRight(X).x() - ob.u_right;
+        dr += u_right_error;
         ++nr;
       }
-    }
-    // By depth (in baselines): mean radial residual (projection minus observation, along the
-    // direction from the principal point) and mean right-image residual of the stereo ones.
-    const double edges[] = {0.0, 10.0, 20.0, 40.0, 80.0, 1e9};
-    for (int bin = 0; bin < 5; ++bin) {
-      double radial = 0, radial2 = 0, right = 0;
-      int count = 0, count_right = 0;
-      for (const auto& ob : p.point_obs) {
-        const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
-        const double z = X.z() / cam.baseline;
-        if (X.z() < 0.1 || z < edges[bin] || z >= edges[bin + 1]) continue;
-        const Eigen::Vector2d e = cam.Project(X) - ob.uv;
-        if (e.norm() > 2.0) continue;
-        const Eigen::Vector2d from_centre = ob.uv - Eigen::Vector2d(cam.cx, cam.cy);
-        if (from_centre.norm() < 1.0) continue;
-        const double r = e.dot(from_centre.normalized());
-        radial += r;
-        radial2 += r * r;
-        ++count;
-        if (ob.stereo) {
-          right += cam.ProjectRight(X).x() - ob.u_right;
-          ++count_right;
-        }
+      const Eigen::Vector2d from_centre = ob.uv - Eigen::Vector2d(cam.cx, cam.cy);
+      if (from_centre.norm() < 1.0) continue;
+      const double z = X.z() / cam.baseline;
+      int bin = 0;
+      while (bin + 1 < kBins && z >= edges[bin + 1]) ++bin;
+      const double r = e.dot(from_centre.normalized());
+      radial[bin] += r;
+      radial2[bin] += r * r;
+      ++count[bin];
+      if (ob.stereo) {
+        right[bin] += u_right_error;
+        ++count_right[bin];
       }
-      const double mean = radial / std::max(count, 1);
-      const double sd = std::sqrt(std::max(0.0, radial2 / std::max(count, 1) - mean * mean));
-      std::cout << "points " << edges[bin] << "-" << edges[bin + 1] << " baselines: " << count
-                << ", mean radial " << mean << " +- " << sd / std::sqrt(std::max(count, 1))
-                << " (standard error); stereo " << count_right << ", mean right "
-                << right / std::max(count_right, 1) << "\n";
+    }
+    for (int bin = 0; bin < kBins; ++bin) {
+      const int c = std::max(count[bin], 1);
+      const double mean = radial[bin] / c;
+      const double sd = std::sqrt(std::max(0.0, radial2[bin] / c - mean * mean));
+      std::cout << "points " << edges[bin] << "-" << edges[bin + 1] << " baselines: " << count[bin]
+                << ", mean radial " << mean << " +- " << sd / std::sqrt(c)
+                << " (standard error); stereo " << count_right[bin] << ", mean right "
+                << right[bin] / std::max(count_right[bin], 1) << "\n";
     }
     std::cout << "points: " << n << " observations, mean du " << du / n << " dv " << dv / n
               << "; right image " << nr << ", mean du " << dr / std::max(nr, 1) << "\n";
