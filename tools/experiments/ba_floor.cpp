@@ -4,8 +4,11 @@
 // the whole final map (a) from where it is and (b) from the ground truth (keyframes moved to
 // the truth, landmarks moved with their first observer), printing the keyframe ATE (SE3 and
 // Sim3 scale) after each solve. With --gt-residuals: the landmarks alone are optimised at the
-// ground-truth poses and the mean signed residuals per kind are printed.
-// docs/BENCHMARKS.md, ninth session, has what it measured.
+// ground-truth poses and the mean signed residuals per kind are printed; then, with the poses
+// still at the truth, small changes of the camera (fx, cx, cy, doffs, k1, a scale of the
+// truth's translations, a constant camera rotation) are fitted to the point observations, and
+// a self-calibrating BA (poses, points and intrinsics free) runs from the map without truth.
+// docs/BENCHMARKS.md, ninth and fourteenth sessions, has what it measured.
 //
 // Build against a built workspace (from the repository root):
 //   g++ -O2 -std=c++17 -DNDEBUG -I include -I src/mapping -I /usr/include/eigen3 \
@@ -22,6 +25,9 @@
 #include <cstring>
 #include <iostream>
 #include <string>
+
+#include <ceres/ceres.h>
+#include <ceres/rotation.h>
 
 #include "mapping_steps.h"
 #include "pl_slam/eval/alignment.h"
@@ -65,6 +71,161 @@ std::string AlongTravel(const Poses& T_w_c, const Poses& truth) {
                      std::lround((t_est - t_true).dot(t_true.normalized()) * 1000.0)));
   }
   return out;
+}
+
+/// Left (u, v) and right u of point `X_w` seen from fixed pose `T_c_w`, with the intrinsics
+/// perturbed by `k` = {dfx, dcx, dcy, ddoffs, k1} (k1 a radial distortion on normalised
+/// coordinates) and the pose's translation scaled by `scale`[0].
+struct CalibCost {
+  CalibCost(const pl_slam::StereoCamera& cam, const SE3& T_c_w, const Eigen::Vector2d& uv,
+            bool stereo, double u_right)
+      : cam_(cam), T_c_w_(T_c_w), uv_(uv), stereo_(stereo), u_right_(u_right) {}
+  template <typename T>
+  bool operator()(const T* k, const T* scale, const T* w, const T* X_w, T* r) const {
+    const Eigen::Matrix<T, 3, 1> X(X_w[0], X_w[1], X_w[2]);
+    const Eigen::Matrix<T, 3, 1> X_g =
+        T_c_w_.rotation().cast<T>() * X + T_c_w_.translation().cast<T>() * scale[0];
+    Eigen::Matrix<T, 3, 1> X_c;  // the camera rotated by w against the truth's camera frame
+    ceres::AngleAxisRotatePoint(w, X_g.data(), X_c.data());
+    const T fx = T(cam_.fx) + k[0], fy = T(cam_.fy) + k[0] * T(cam_.fy / cam_.fx);
+    const T cx = T(cam_.cx) + k[1], cy = T(cam_.cy) + k[2];
+    const T x = X_c.x() / X_c.z(), y = X_c.y() / X_c.z();
+    const T d = T(1) + k[4] * (x * x + y * y);
+    r[0] = fx * x * d + cx - T(uv_.x());
+    r[1] = fy * y * d + cy - T(uv_.y());
+    const T xr = (X_c.x() - T(cam_.baseline)) / X_c.z();
+    const T dr = T(1) + k[4] * (xr * xr + y * y);
+    r[2] = stereo_ ? fx * xr * dr + cx + T(cam_.doffs) + k[3] - T(u_right_) : T(0);
+    return true;
+  }
+  pl_slam::StereoCamera cam_;
+  SE3 T_c_w_;
+  Eigen::Vector2d uv_;
+  bool stereo_;
+  double u_right_;
+};
+
+/// Poses fixed at the truth, landmarks free: which intrinsics / translation scale fit best?
+void CalibrateAtTruth(const pl_slam::StereoCamera& cam, const pl_slam::BaProblem& p) {
+  struct Variant {
+    const char* name;
+    bool intrinsics, scale, k1, rotation;
+  };
+  for (const Variant v : {Variant{"nothing", false, false, false, false},
+                          Variant{"translation scale", false, true, false, false},
+                          Variant{"camera rotation", false, false, false, true},
+                          Variant{"camera rotation + scale", false, true, false, true},
+                          Variant{"fx cx cy doffs", true, false, false, false},
+                          Variant{"fx cx cy doffs k1", true, false, true, false},
+                          Variant{"fx cx cy doffs k1 + scale", true, true, true, false},
+                          Variant{"all", true, true, true, true}}) {
+    double k[5] = {0, 0, 0, 0, 0}, scale = 1.0, w[3] = {0, 0, 0};
+    auto points = p.points;
+    ceres::Problem problem;
+    int used = 0;
+    for (const auto& ob : p.point_obs) {
+      const SE3 T_c_w = p.poses[ob.pose].T_w_c.inverse();
+      const Eigen::Vector3d X = T_c_w * p.points[ob.point];
+      if (X.z() < 0.1 || (cam.Project(X) - ob.uv).norm() > 2.0) continue;
+      ++used;
+      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<CalibCost, 3, 5, 1, 3, 3>(
+                                   new CalibCost(cam, T_c_w, ob.uv, ob.stereo, ob.u_right)),
+                               new ceres::HuberLoss(1.0), k, &scale, w, points[ob.point].data());
+    }
+    if (used == 0) return;
+    if (!v.scale) problem.SetParameterBlockConstant(&scale);
+    if (!v.rotation) problem.SetParameterBlockConstant(w);
+    if (!v.intrinsics) {
+      problem.SetParameterBlockConstant(k);
+    } else if (!v.k1) {
+      problem.SetManifold(k, new ceres::SubsetManifold(5, {4}));
+    }
+    ceres::Solver::Options so;
+    so.linear_solver_type = ceres::SPARSE_SCHUR;
+    so.max_num_iterations = 100;
+    ceres::Solver::Summary sum;
+    ceres::Solve(so, &problem, &sum);
+    std::cout << "calibrate at the truth, " << v.name << ": " << used << " observations, cost "
+              << sum.final_cost << "; dfx " << k[0] << " dcx " << k[1] << " dcy " << k[2]
+              << " ddoffs " << k[3] << " k1 " << k[4] << " scale " << scale << " rotation (deg) "
+              << w[0] * 180 / M_PI << " " << w[1] * 180 / M_PI << " " << w[2] * 180 / M_PI << "\n";
+  }
+}
+
+/// CalibCost with the pose free too: q (x, y, z, w) and t of T_c_w.
+struct SelfCalibCost {
+  SelfCalibCost(const pl_slam::StereoCamera& cam, const Eigen::Vector2d& uv, bool stereo,
+                double u_right)
+      : cam_(cam), uv_(uv), stereo_(stereo), u_right_(u_right) {}
+  template <typename T>
+  bool operator()(const T* k, const T* q, const T* t, const T* X_w, T* r) const {
+    const Eigen::Quaternion<T> Q(q[3], q[0], q[1], q[2]);
+    const Eigen::Matrix<T, 3, 1> X_c = Q * Eigen::Matrix<T, 3, 1>(X_w[0], X_w[1], X_w[2]) +
+                                       Eigen::Matrix<T, 3, 1>(t[0], t[1], t[2]);
+    const T fx = T(cam_.fx) + k[0], fy = T(cam_.fy) + k[0] * T(cam_.fy / cam_.fx);
+    const T cx = T(cam_.cx) + k[1], cy = T(cam_.cy) + k[2];
+    const T x = X_c.x() / X_c.z(), y = X_c.y() / X_c.z();
+    const T d = T(1) + k[4] * (x * x + y * y);
+    r[0] = fx * x * d + cx - T(uv_.x());
+    r[1] = fy * y * d + cy - T(uv_.y());
+    const T xr = (X_c.x() - T(cam_.baseline)) / X_c.z();
+    const T dr = T(1) + k[4] * (xr * xr + y * y);
+    r[2] = stereo_ ? fx * xr * dr + cx + T(cam_.doffs) + k[3] - T(u_right_) : T(0);
+    return true;
+  }
+  pl_slam::StereoCamera cam_;
+  Eigen::Vector2d uv_;
+  bool stereo_;
+  double u_right_;
+};
+
+/// Poses, landmarks and intrinsics free (points only, first pose fixed): does the map's own
+/// data move the intrinsics where the truth wants them?
+void SelfCalibrate(const pl_slam::StereoCamera& cam, const pl_slam::BaProblem& p,
+                   const Poses& truth, bool with_k1) {
+  double k[5] = {0, 0, 0, 0, 0};
+  auto points = p.points;
+  std::vector<Eigen::Vector4d> q(p.poses.size());
+  std::vector<Eigen::Vector3d> t(p.poses.size());
+  for (size_t i = 0; i < p.poses.size(); ++i) {
+    const SE3 T_c_w = p.poses[i].T_w_c.inverse();
+    const Eigen::Quaterniond r(T_c_w.rotation());
+    q[i] = Eigen::Vector4d(r.x(), r.y(), r.z(), r.w());
+    t[i] = T_c_w.translation();
+  }
+  ceres::Problem problem;
+  for (const auto& ob : p.point_obs) {
+    const SE3 T_c_w = p.poses[ob.pose].T_w_c.inverse();
+    const Eigen::Vector3d X = T_c_w * p.points[ob.point];
+    if (X.z() < 0.1 || (cam.Project(X) - ob.uv).norm() > 2.0) continue;
+    problem.AddResidualBlock(new ceres::AutoDiffCostFunction<SelfCalibCost, 3, 5, 4, 3, 3>(
+                                 new SelfCalibCost(cam, ob.uv, ob.stereo, ob.u_right)),
+                             new ceres::HuberLoss(1.0), k, q[ob.pose].data(), t[ob.pose].data(),
+                             points[ob.point].data());
+  }
+  for (size_t i = 0; i < p.poses.size(); ++i) {
+    if (!problem.HasParameterBlock(q[i].data())) continue;
+    problem.SetManifold(q[i].data(), new ceres::EigenQuaternionManifold);
+    if (i == 0 || p.poses[i].fixed) {
+      problem.SetParameterBlockConstant(q[i].data());
+      problem.SetParameterBlockConstant(t[i].data());
+    }
+  }
+  if (!with_k1) problem.SetManifold(k, new ceres::SubsetManifold(5, {4}));
+  ceres::Solver::Options so;
+  so.linear_solver_type = ceres::SPARSE_SCHUR;
+  so.max_num_iterations = 100;
+  ceres::Solver::Summary sum;
+  ceres::Solve(so, &problem, &sum);
+  Poses est;
+  for (size_t i = 0; i < p.poses.size(); ++i) {
+    const Eigen::Quaterniond r(q[i][3], q[i][0], q[i][1], q[i][2]);
+    est.push_back(SE3(r.normalized().toRotationMatrix(), t[i]).inverse());
+  }
+  std::cout << "self-calibrating BA" << (with_k1 ? " with k1" : "") << ": cost " << sum.initial_cost
+            << " -> " << sum.final_cost << "; dfx " << k[0] << " dcx " << k[1] << " dcy " << k[2]
+            << " ddoffs " << k[3] << " k1 " << k[4] << "; keyframe ATE ";
+  std::cout << KeyframeAte(est, truth) << " mm\n";
 }
 
 }  // namespace
@@ -199,6 +360,13 @@ int main(int argc, char** argv) {
     }
     std::cout << "  along travel, after:" << AlongTravel(est, gt) << "\n";
     if (!gt_residuals) continue;
+    CalibrateAtTruth(ctx.camera, p);
+    {
+      mapping::GlobalBa from_map;
+      if (!mapping::PrepareGlobalBundleAdjustment(ctx, &from_map)) return 1;
+      SelfCalibrate(ctx.camera, from_map.window.problem, gt, false);
+      SelfCalibrate(ctx.camera, from_map.window.problem, gt, true);
+    }
     // Mean signed residuals at the ground-truth poses (landmarks optimised, |r| < 2 px).
     const StereoCamera& cam = ctx.camera;
     double du = 0, dv = 0, dr = 0;

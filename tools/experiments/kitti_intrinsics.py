@@ -1,0 +1,89 @@
+#!/usr/bin/python3
+"""KITTI clip: VO and map drift with the calibration as shipped and with modified intrinsics.
+
+The fourteenth session (docs/BENCHMARKS.md) fitted the intrinsics to the clip's ground truth
+(`ba_floor ../shared/datasets/kitti_clip_a --no-loop --doffs 1.28 --gt-residuals`). This
+runs the clip with each calibration below, through copies of the dataset folder whose images
+and poses are symbolic links and whose calib.txt is rewritten, and prints the drift over 10 m.
+Usage, from the repository root after a build:
+
+  /usr/bin/python3 tools/experiments/kitti_intrinsics.py [--dataset ../shared/datasets/kitti_clip_a]
+
+Folders and runs go to output/kitti_intrinsics/. The fitted values are diagnostics: they come
+from the ground truth of the same frames, so they are not a calibration to ship.
+"""
+import argparse
+import os
+import re
+import subprocess
+import sys
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+BIN = os.path.join(ROOT, ".ws", "devel", "lib", "pl_slam")
+
+# name: (fx, cx, cy, doffs)
+CALIBRATIONS = {
+    "shipped": (718.856, 607.1928, 185.2157, 0.0),
+    "shipped, doffs 1.28": (718.856, 607.1928, 185.2157, 1.28),
+    "fitted at the truth": (714.295, 602.405, 188.197, 1.28),
+    "fitted cx cy only": (718.856, 602.405, 188.197, 1.28),
+    "fitted fx only": (714.295, 607.1928, 185.2157, 1.28),
+    "self-calibrated (no truth)": (705.985, 602.600, 190.141, 1.70),
+    "self-calibrated cx cy only": (718.856, 602.600, 190.141, 1.28),
+}
+VARIANTS = {
+    "vo": "mapping.enabled=false,loop.enabled=false",
+    "map": "mapping.threaded=false,loop.enabled=false",
+    "map observed": "mapping.threaded=false,loop.enabled=false,mapping.ba.line_residual=observed",
+    "map idle keyframes": "mapping.threaded=false,loop.enabled=false,"
+    "tracker.keyframes.idle_min_frames=1",
+}
+
+
+def drift(out):
+    text = subprocess.run(
+        [os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(out, "trajectory.tum"),
+         "--gt", os.path.join(out, "groundtruth.tum")],
+        capture_output=True, text=True).stdout
+    m = re.search(r"drift 10 m\s+trans\s+([0-9.]+) %", text)
+    return float(m.group(1)) if m else float("nan")
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dataset", default=os.path.join(ROOT, "..", "shared", "datasets",
+                                                      "kitti_clip_a"))
+    args = ap.parse_args()
+    if not os.path.isfile(os.path.join(args.dataset, "calib.txt")):
+        print(f"kitti_intrinsics: skipped: {args.dataset} is absent (the shared datasets are not "
+              "in a user's clone)")
+        return 0
+    with open(os.path.join(args.dataset, "calib.txt")) as f:
+        p1 = next(line for line in f if line.startswith("P1:")).split()[1:]
+    baseline = -float(p1[3]) / float(p1[0])
+    base = os.path.join(ROOT, "output", "kitti_intrinsics")
+    print("| calibration (fx, cx, cy, doffs) | " + " | ".join(VARIANTS) + " |")
+    print("|---|" + "---|" * len(VARIANTS))
+    for i, (name, (fx, cx, cy, doffs)) in enumerate(CALIBRATIONS.items()):
+        folder = os.path.join(base, f"data_{i}")
+        os.makedirs(folder, exist_ok=True)
+        for entry in ("image_0", "image_1", "poses.txt", "times.txt"):
+            link = os.path.join(folder, entry)
+            if not os.path.lexists(link):
+                os.symlink(os.path.abspath(os.path.join(args.dataset, entry)), link)
+        with open(os.path.join(folder, "calib.txt"), "w") as f:
+            f.write(f"P0: {fx} 0 {cx} 0 0 {fx} {cy} 0 0 0 1 0\n")
+            f.write(f"P1: {fx} 0 {cx} {-fx * baseline} 0 {fx} {cy} 0 0 0 1 0\n")
+        cells = []
+        for v, options in VARIANTS.items():
+            out = os.path.join(base, f"run_{i}_{v.replace(' ', '_')}")
+            subprocess.run([os.path.join(BIN, "pl_slam_offline"), folder, "--quiet", "--out", out,
+                            "--doffs", str(doffs), "--set", options],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+            cells.append(f"{drift(out):.2f}%")
+        print(f"| {name} ({fx}, {cx}, {cy}, {doffs}) | " + " | ".join(cells) + " |", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
