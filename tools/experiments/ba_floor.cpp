@@ -73,9 +73,27 @@ std::string AlongTravel(const Poses& T_w_c, const Poses& truth) {
   return out;
 }
 
-/// Left (u, v) and right u of point `X_w` seen from fixed pose `T_c_w`, with the intrinsics
-/// perturbed by `k` = {dfx, dcx, dcy, ddoffs, k1} (k1 a radial distortion on normalised
-/// coordinates) and the pose's translation scaled by `scale`[0].
+/// Residuals (left u, v; right u, 0 when not stereo) of camera-frame point `X_c` with the
+/// intrinsics perturbed by `k` = {dfx, dcx, dcy, ddoffs, k1} (k1 a radial distortion on
+/// normalised coordinates).
+template <typename T>
+bool PerturbedResiduals(const pl_slam::StereoCamera& cam, const T* k,
+                        const Eigen::Matrix<T, 3, 1>& X_c, const Eigen::Vector2d& uv, bool stereo,
+                        double u_right, T* r) {
+  const T fx = T(cam.fx) + k[0], fy = T(cam.fy) + k[0] * T(cam.fy / cam.fx);
+  const T cx = T(cam.cx) + k[1], cy = T(cam.cy) + k[2];
+  const T x = X_c.x() / X_c.z(), y = X_c.y() / X_c.z();
+  const T d = T(1) + k[4] * (x * x + y * y);
+  r[0] = fx * x * d + cx - T(uv.x());
+  r[1] = fy * y * d + cy - T(uv.y());
+  const T xr = (X_c.x() - T(cam.baseline)) / X_c.z();
+  const T dr = T(1) + k[4] * (xr * xr + y * y);
+  r[2] = stereo ? fx * xr * dr + cx + T(cam.doffs) + k[3] - T(u_right) : T(0);
+  return true;
+}
+
+/// PerturbedResiduals of point `X_w` seen from fixed pose `T_c_w`, its translation scaled by
+/// `scale`[0] and the camera turned by angle-axis `w`.
 struct CalibCost {
   CalibCost(const pl_slam::StereoCamera& cam, const SE3& T_c_w, const Eigen::Vector2d& uv,
             bool stereo, double u_right)
@@ -87,16 +105,7 @@ struct CalibCost {
         T_c_w_.rotation().cast<T>() * X + T_c_w_.translation().cast<T>() * scale[0];
     Eigen::Matrix<T, 3, 1> X_c;  // the camera rotated by w against the truth's camera frame
     ceres::AngleAxisRotatePoint(w, X_g.data(), X_c.data());
-    const T fx = T(cam_.fx) + k[0], fy = T(cam_.fy) + k[0] * T(cam_.fy / cam_.fx);
-    const T cx = T(cam_.cx) + k[1], cy = T(cam_.cy) + k[2];
-    const T x = X_c.x() / X_c.z(), y = X_c.y() / X_c.z();
-    const T d = T(1) + k[4] * (x * x + y * y);
-    r[0] = fx * x * d + cx - T(uv_.x());
-    r[1] = fy * y * d + cy - T(uv_.y());
-    const T xr = (X_c.x() - T(cam_.baseline)) / X_c.z();
-    const T dr = T(1) + k[4] * (xr * xr + y * y);
-    r[2] = stereo_ ? fx * xr * dr + cx + T(cam_.doffs) + k[3] - T(u_right_) : T(0);
-    return true;
+    return PerturbedResiduals(cam_, k, X_c, uv_, stereo_, u_right_, r);
   }
   pl_slam::StereoCamera cam_;
   SE3 T_c_w_;
@@ -162,16 +171,7 @@ struct SelfCalibCost {
     const Eigen::Quaternion<T> Q(q[3], q[0], q[1], q[2]);
     const Eigen::Matrix<T, 3, 1> X_c = Q * Eigen::Matrix<T, 3, 1>(X_w[0], X_w[1], X_w[2]) +
                                        Eigen::Matrix<T, 3, 1>(t[0], t[1], t[2]);
-    const T fx = T(cam_.fx) + k[0], fy = T(cam_.fy) + k[0] * T(cam_.fy / cam_.fx);
-    const T cx = T(cam_.cx) + k[1], cy = T(cam_.cy) + k[2];
-    const T x = X_c.x() / X_c.z(), y = X_c.y() / X_c.z();
-    const T d = T(1) + k[4] * (x * x + y * y);
-    r[0] = fx * x * d + cx - T(uv_.x());
-    r[1] = fy * y * d + cy - T(uv_.y());
-    const T xr = (X_c.x() - T(cam_.baseline)) / X_c.z();
-    const T dr = T(1) + k[4] * (xr * xr + y * y);
-    r[2] = stereo_ ? fx * xr * dr + cx + T(cam_.doffs) + k[3] - T(u_right_) : T(0);
-    return true;
+    return PerturbedResiduals(cam_, k, X_c, uv_, stereo_, u_right_, r);
   }
   pl_slam::StereoCamera cam_;
   Eigen::Vector2d uv_;

@@ -30,6 +30,8 @@ CALIBRATIONS = {
     "fitted fx only": (714.295, 607.1928, 185.2157, 1.28),
     "self-calibrated (no truth)": (705.985, 602.600, 190.141, 1.70),
     "self-calibrated cx cy only": (718.856, 602.600, 190.141, 1.28),
+    "self-calibrated with k1, k1 dropped": (712.865, 602.987, 189.481, 1.68),
+    "the same, doffs 1.28": (712.865, 602.987, 189.481, 1.28),
 }
 VARIANTS = {
     "vo": "mapping.enabled=false,loop.enabled=false",
