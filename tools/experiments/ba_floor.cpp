@@ -4,9 +4,9 @@
 // the whole final map (a) from where it is and (b) from the ground truth (keyframes moved to
 // the truth, landmarks moved with their first observer), printing the keyframe ATE (SE3 and
 // Sim3 scale) after each solve. With --gt-residuals: the landmarks alone are optimised at the
-// ground-truth poses and the mean signed residuals per kind are printed; then, with the poses
-// still at the truth, small changes of the camera (fx, cx, cy, doffs, k1, a scale of the
-// truth's translations, a constant camera rotation) are fitted to the point observations, and
+// ground-truth poses and the mean signed residuals per kind, depth and octave are printed; then,
+// with the poses still at the truth, small changes of the camera (fx, cx, cy, doffs, k1, a scale of
+// the truth's translations, a constant camera rotation) are fitted to the point observations, and
 // a self-calibrating BA (poses, points and intrinsics free) runs from the map without truth.
 // docs/BENCHMARKS.md, ninth and fourteenth sessions, has what it measured.
 //
@@ -21,6 +21,7 @@
 // A dataset folder (EuRoC or KITTI layout, as pl_slam_offline reads) replaces the synthetic
 // scene; its ground truth is taken frame by frame. Each solve also prints the error of the
 // consecutive keyframes' relative translation along the true motion (mm, + = too long).
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <iostream>
@@ -403,6 +404,34 @@ int main(int argc, char** argv) {
         right[bin] += u_right_error;
         ++count_right[bin];
       }
+    }
+    {  // By pyramid octave (from the observation's weight, scale factor 1.2).
+      constexpr int kOctaves = 8;
+      double ou[kOctaves] = {}, ov[kOctaves] = {}, orad[kOctaves] = {}, oright[kOctaves] = {};
+      int on[kOctaves] = {}, onr[kOctaves] = {};
+      for (const auto& ob : p.point_obs) {
+        const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
+        if (X.z() < 0.1) continue;
+        const Eigen::Vector2d e = cam.Project(X) - ob.uv;
+        if (e.norm() > 2.0) continue;
+        const int o =
+            std::clamp(static_cast<int>(std::lround(-std::log(ob.sqrt_info) / std::log(1.2))), 0,
+                       kOctaves - 1);
+        const Eigen::Vector2d from_centre = ob.uv - Eigen::Vector2d(cam.cx, cam.cy);
+        ou[o] += e.x();
+        ov[o] += e.y();
+        orad[o] += from_centre.norm() > 1.0 ? e.dot(from_centre.normalized()) : 0.0;
+        ++on[o];
+        if (ob.stereo) {
+          oright[o] += cam.ProjectRight(X).x() - ob.u_right;
+          ++onr[o];
+        }
+      }
+      for (int o = 0; o < kOctaves; ++o)
+        if (on[o] > 0)
+          std::cout << "points octave " << o << ": " << on[o] << ", mean du " << ou[o] / on[o]
+                    << " dv " << ov[o] / on[o] << " radial " << orad[o] / on[o] << "; stereo "
+                    << onr[o] << ", mean right du " << oright[o] / std::max(onr[o], 1) << "\n";
     }
     for (int bin = 0; bin < kBins; ++bin) {
       const int c = std::max(count[bin], 1);
