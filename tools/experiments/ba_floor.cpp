@@ -378,6 +378,11 @@ int main(int argc, char** argv) {
     const double edges[kBins + 1] = {0.0, 10.0, 20.0, 40.0, 80.0, 1e9};
     double radial[kBins] = {}, radial2[kBins] = {}, right[kBins] = {};
     int count[kBins] = {}, count_right[kBins] = {};
+    // By pyramid octave (from the observation's weight, scale factor 1.2): means of u, v,
+    // radial and right-image residuals.
+    constexpr int kOctaves = 8;
+    double ou[kOctaves] = {}, ov[kOctaves] = {}, orad[kOctaves] = {}, oright[kOctaves] = {};
+    int on[kOctaves] = {}, onr[kOctaves] = {};
     for (const auto& ob : p.point_obs) {
       const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
       if (X.z() < 0.1) continue;
@@ -391,12 +396,22 @@ int main(int argc, char** argv) {
         dr += u_right_error;
         ++nr;
       }
+      const int o = std::clamp(
+          static_cast<int>(std::lround(-std::log(ob.sqrt_info) / std::log(1.2))), 0, kOctaves - 1);
+      ou[o] += e.x();
+      ov[o] += e.y();
+      ++on[o];
+      if (ob.stereo) {
+        oright[o] += u_right_error;
+        ++onr[o];
+      }
       const Eigen::Vector2d from_centre = ob.uv - Eigen::Vector2d(cam.cx, cam.cy);
       if (from_centre.norm() < 1.0) continue;
       const double z = X.z() / cam.baseline;
       int bin = 0;
       while (bin + 1 < kBins && z >= edges[bin + 1]) ++bin;
       const double r = e.dot(from_centre.normalized());
+      orad[o] += r;
       radial[bin] += r;
       radial2[bin] += r * r;
       ++count[bin];
@@ -405,34 +420,11 @@ int main(int argc, char** argv) {
         ++count_right[bin];
       }
     }
-    {  // By pyramid octave (from the observation's weight, scale factor 1.2).
-      constexpr int kOctaves = 8;
-      double ou[kOctaves] = {}, ov[kOctaves] = {}, orad[kOctaves] = {}, oright[kOctaves] = {};
-      int on[kOctaves] = {}, onr[kOctaves] = {};
-      for (const auto& ob : p.point_obs) {
-        const Eigen::Vector3d X = p.poses[ob.pose].T_w_c.inverse() * p.points[ob.point];
-        if (X.z() < 0.1) continue;
-        const Eigen::Vector2d e = cam.Project(X) - ob.uv;
-        if (e.norm() > 2.0) continue;
-        const int o =
-            std::clamp(static_cast<int>(std::lround(-std::log(ob.sqrt_info) / std::log(1.2))), 0,
-                       kOctaves - 1);
-        const Eigen::Vector2d from_centre = ob.uv - Eigen::Vector2d(cam.cx, cam.cy);
-        ou[o] += e.x();
-        ov[o] += e.y();
-        orad[o] += from_centre.norm() > 1.0 ? e.dot(from_centre.normalized()) : 0.0;
-        ++on[o];
-        if (ob.stereo) {
-          oright[o] += cam.ProjectRight(X).x() - ob.u_right;
-          ++onr[o];
-        }
-      }
-      for (int o = 0; o < kOctaves; ++o)
-        if (on[o] > 0)
-          std::cout << "points octave " << o << ": " << on[o] << ", mean du " << ou[o] / on[o]
-                    << " dv " << ov[o] / on[o] << " radial " << orad[o] / on[o] << "; stereo "
-                    << onr[o] << ", mean right du " << oright[o] / std::max(onr[o], 1) << "\n";
-    }
+    for (int o = 0; o < kOctaves; ++o)
+      if (on[o] > 0)
+        std::cout << "points octave " << o << ": " << on[o] << ", mean du " << ou[o] / on[o]
+                  << " dv " << ov[o] / on[o] << " radial " << orad[o] / on[o] << "; stereo "
+                  << onr[o] << ", mean right du " << oright[o] / std::max(onr[o], 1) << "\n";
     for (int bin = 0; bin < kBins; ++bin) {
       const int c = std::max(count[bin], 1);
       const double mean = radial[bin] / c;
