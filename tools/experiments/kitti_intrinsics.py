@@ -13,6 +13,7 @@ Folders and runs go to output/kitti_intrinsics/. The fitted values are diagnosti
 from the ground truth of the same frames, so they are not a calibration to ship.
 """
 import argparse
+import math
 import os
 import re
 import subprocess
@@ -32,7 +33,12 @@ CALIBRATIONS = {
     "self-calibrated cx cy only": (718.856, 602.600, 190.141, 1.28),
     "self-calibrated with k1, k1 dropped": (712.865, 602.987, 189.481, 1.68),
     "the same, doffs 1.28": (712.865, 602.987, 189.481, 1.28),
+    "KITTI 04-12's calibration, doffs 1.28": (707.0912, 601.8873, 183.1104, 1.28),
+    "KITTI 03's calibration, doffs 1.28": (721.5377, 609.5593, 172.854, 1.28),
 }
+# The constant camera rotation (angle-axis, degrees) that the fit at the truth prefers; the
+# shipped-calibration runs are also scored against the truth turned by it.
+TRUTH_ROTATION_DEG = (-0.383189, -0.785044, -0.07001)
 VARIANTS = {
     "vo": "mapping.enabled=false,loop.enabled=false",
     "map": "mapping.threaded=false,loop.enabled=false",
@@ -42,10 +48,33 @@ VARIANTS = {
 }
 
 
-def drift(out):
+def rotate_truth(src, dst, w_deg):
+    """Writes `src` (TUM) with every orientation q turned to q * exp(w)^-1 (camera frame)."""
+    w = [math.radians(a) for a in w_deg]
+    angle = math.sqrt(sum(a * a for a in w))
+    s = math.sin(angle / 2) / angle
+    inv = (-w[0] * s, -w[1] * s, -w[2] * s, math.cos(angle / 2))  # x y z w
+
+    def mul(a, b):
+        ax, ay, az, aw = a
+        bx, by, bz, bw = b
+        return (aw * bx + ax * bw + ay * bz - az * by, aw * by - ax * bz + ay * bw + az * bx,
+                aw * bz + ax * by - ay * bx + az * bw, aw * bw - ax * bx - ay * by - az * bz)
+
+    with open(src) as f, open(dst, "w") as g:
+        for line in f:
+            v = line.split()
+            if line.startswith("#") or len(v) != 8:
+                g.write(line)
+                continue
+            q = mul(tuple(float(x) for x in v[4:8]), inv)
+            g.write(" ".join(v[:4] + [f"{x:.9f}" for x in q]) + "\n")
+
+
+def drift(out, truth="groundtruth.tum"):
     text = subprocess.run(
         [os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(out, "trajectory.tum"),
-         "--gt", os.path.join(out, "groundtruth.tum")],
+         "--gt", os.path.join(out, truth)],
         capture_output=True, text=True).stdout
     m = re.search(r"drift 10 m\s+trans\s+([0-9.]+) %", text)
     return float(m.group(1)) if m else float("nan")
@@ -64,6 +93,7 @@ def main():
         p1 = next(line for line in f if line.startswith("P1:")).split()[1:]
     baseline = -float(p1[3]) / float(p1[0])
     base = os.path.join(ROOT, "output", "kitti_intrinsics")
+    turned = []
     print("| calibration (fx, cx, cy, doffs) | " + " | ".join(VARIANTS) + " |")
     print("|---|" + "---|" * len(VARIANTS))
     for i, (name, (fx, cx, cy, doffs)) in enumerate(CALIBRATIONS.items()):
@@ -83,7 +113,13 @@ def main():
                             "--doffs", str(doffs), "--set", options],
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
             cells.append(f"{drift(out):.2f}%")
+            if name == "shipped, doffs 1.28" and v in ("vo", "map"):
+                rotate_truth(os.path.join(out, "groundtruth.tum"),
+                             os.path.join(out, "groundtruth_turned.tum"), TRUTH_ROTATION_DEG)
+                turned.append(f"{v} {drift(out, 'groundtruth_turned.tum'):.2f}%")
         print(f"| {name} ({fx}, {cx}, {cy}, {doffs}) | " + " | ".join(cells) + " |", flush=True)
+    print(f"shipped, doffs 1.28, scored against the truth turned by {TRUTH_ROTATION_DEG} deg: "
+          + ", ".join(turned))
     return 0
 
 
