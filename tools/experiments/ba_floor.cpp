@@ -370,16 +370,14 @@ int main(int argc, char** argv) {
     }
     // Mean signed residuals at the ground-truth poses (landmarks optimised, |r| < 2 px).
     const StereoCamera& cam = ctx.camera;
-    double du = 0, dv = 0, dr = 0;
-    int n = 0, nr = 0;
     // By depth (in baselines): mean radial residual (projection minus observation, along the
     // direction from the principal point) and mean right-image residual of the stereo ones.
     constexpr int kBins = 5;
     const double edges[kBins + 1] = {0.0, 10.0, 20.0, 40.0, 80.0, 1e9};
     double radial[kBins] = {}, radial2[kBins] = {}, right[kBins] = {};
     int count[kBins] = {}, count_right[kBins] = {};
-    // By pyramid octave (from the observation's weight, scale factor 1.2): means of u, v,
-    // radial and right-image residuals.
+    // By pyramid octave (from the observation's weight, PointSqrtInfo): means of u, v, radial
+    // and right-image residuals; their sums give the overall means.
     constexpr int kOctaves = 8;
     double ou[kOctaves] = {}, ov[kOctaves] = {}, orad[kOctaves] = {}, oright[kOctaves] = {};
     int on[kOctaves] = {}, onr[kOctaves] = {};
@@ -389,15 +387,9 @@ int main(int argc, char** argv) {
       const Eigen::Vector2d e = cam.Project(X) - ob.uv;
       if (e.norm() > 2.0) continue;
       const double u_right_error = ob.stereo ? cam.ProjectRight(X).x() - ob.u_right : 0.0;
-      du += e.x();
-      dv += e.y();
-      ++n;
-      if (ob.stereo) {
-        dr += u_right_error;
-        ++nr;
-      }
-      const int o = std::clamp(
-          static_cast<int>(std::lround(-std::log(ob.sqrt_info) / std::log(1.2))), 0, kOctaves - 1);
+      const int o = std::clamp(static_cast<int>(std::lround(-std::log(ob.sqrt_info) /
+                                                            std::log(ctx.front_end.scale_factor))),
+                               0, kOctaves - 1);
       ou[o] += e.x();
       ov[o] += e.y();
       ++on[o];
@@ -420,11 +412,19 @@ int main(int argc, char** argv) {
         ++count_right[bin];
       }
     }
-    for (int o = 0; o < kOctaves; ++o)
+    double du = 0, dv = 0, dr = 0;
+    int n = 0, nr = 0;
+    for (int o = 0; o < kOctaves; ++o) {
+      du += ou[o];
+      dv += ov[o];
+      dr += oright[o];
+      n += on[o];
+      nr += onr[o];
       if (on[o] > 0)
         std::cout << "points octave " << o << ": " << on[o] << ", mean du " << ou[o] / on[o]
                   << " dv " << ov[o] / on[o] << " radial " << orad[o] / on[o] << "; stereo "
                   << onr[o] << ", mean right du " << oright[o] / std::max(onr[o], 1) << "\n";
+    }
     for (int bin = 0; bin < kBins; ++bin) {
       const int c = std::max(count[bin], 1);
       const double mean = radial[bin] / c;

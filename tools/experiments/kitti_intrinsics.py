@@ -13,14 +13,14 @@ Folders and runs go to output/kitti_intrinsics/. The fitted values are diagnosti
 from the ground truth of the same frames, so they are not a calibration to ship.
 """
 import argparse
+import json
 import math
 import os
-import re
-import subprocess
 import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-BIN = os.path.join(ROOT, ".ws", "devel", "lib", "pl_slam")
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+from benchmark_offline import BIN, run  # noqa: E402  (the benchmark's binaries and runner)
 
 # name: (fx, cx, cy, doffs)
 CALIBRATIONS = {
@@ -72,12 +72,14 @@ def rotate_truth(src, dst, w_deg):
 
 
 def drift(out, truth="groundtruth.tum"):
-    text = subprocess.run(
-        [os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(out, "trajectory.tum"),
-         "--gt", os.path.join(out, truth)],
-        capture_output=True, text=True).stdout
-    m = re.search(r"drift 10 m\s+trans\s+([0-9.]+) %", text)
-    return float(m.group(1)) if m else float("nan")
+    """Translation drift (%) over 10 m segments, from pl_slam_evaluate's JSON."""
+    report = os.path.join(out, truth + ".json")
+    run([os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(out, "trajectory.tum"),
+         "--gt", os.path.join(out, truth), "--json", report], os.path.join(out, truth + ".log"))
+    with open(report) as f:
+        rows = json.load(f)["rpe_distance"]
+    return next((r["translation_pct"] for r in rows
+                 if r["length_m"] == 10 and r["segments"] > 0), float("nan"))
 
 
 def main():
@@ -109,9 +111,9 @@ def main():
         cells = []
         for v, options in VARIANTS.items():
             out = os.path.join(base, f"run_{i}_{v.replace(' ', '_')}")
-            subprocess.run([os.path.join(BIN, "pl_slam_offline"), folder, "--quiet", "--out", out,
-                            "--doffs", str(doffs), "--set", options],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+            os.makedirs(out, exist_ok=True)
+            run([os.path.join(BIN, "pl_slam_offline"), folder, "--quiet", "--out", out, "--doffs",
+                 str(doffs), "--set", options], os.path.join(out, "offline.log"))
             cells.append(f"{drift(out):.2f}%")
             if name == "shipped, doffs 1.28" and v in ("vo", "map"):
                 rotate_truth(os.path.join(out, "groundtruth.tum"),
