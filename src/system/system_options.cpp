@@ -130,6 +130,19 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.motion.min_sigma_px", &m.min_sigma_px,
         "floor on the residual sigma scaling the covariance, px");
 
+  ConsensusOptions& c = tr.consensus;
+  t.Add("tracker.consensus.enabled", &c.enabled,
+        "RANSAC over minimal point / segment sets before the robust refinement");
+  t.Add("tracker.consensus.max_hypotheses", &c.max_hypotheses, "minimal sets scored at most");
+  t.Add("tracker.consensus.confidence", &c.confidence,
+        "stop drawing once a better consensus is this unlikely to be missed");
+  t.Add("tracker.consensus.inlier_px", &c.inlier_px,
+        "a correspondence supports a hypothesis within this, px");
+  t.Add("tracker.consensus.gate_px", &c.gate_px,
+        "farther from the consensus pose: left out of the refinement, px");
+  t.Add("tracker.consensus.disparity_sigma_px", &c.disparity_sigma_px,
+        "stereo disparity noise assumed by the rigidity pre-check, px");
+
   KeyframeSelectorOptions& k = tr.keyframes;
   t.Add("tracker.keyframes.entropy_ratio", &k.entropy_ratio,
         "keyframe when h(kf,cur)/h(kf,kf+1) drops below");

@@ -47,9 +47,10 @@ std::string TrackerOptions::Validate() const {
     os << "keyframe_max_correction_deg=" << keyframe_max_correction_deg << " must be in (0, 180]";
   if (!os.str().empty()) return os.str();
   const std::pair<const char*, std::string> nested[] = {
-      {"points.", points.Validate()}, {"point_matching.", point_matching.Validate()},
-      {"lines.", lines.Validate()},   {"line_matching.", line_matching.Validate()},
-      {"motion.", motion.Validate()}, {"keyframes.", keyframes.Validate()}};
+      {"points.", points.Validate()},      {"point_matching.", point_matching.Validate()},
+      {"lines.", lines.Validate()},        {"line_matching.", line_matching.Validate()},
+      {"motion.", motion.Validate()},      {"consensus.", consensus.Validate()},
+      {"keyframes.", keyframes.Validate()}};
   for (const auto& [prefix, err] : nested)
     if (!err.empty()) return prefix + err;
   return "";
@@ -111,13 +112,16 @@ struct StereoTracker::Impl {
   struct Estimation {
     MotionEstimate est;
     int point_matches = 0, line_matches = 0;
+    int consensus_inliers = 0;  // supporters of the consensus pose (when consensus ran)
+    bool consensus_ok = false;
     double matching_ms = 0.0, motion_ms = 0.0;
   };
 
   /// Matches the features of a reference frame `ref` (with depth, in its camera frame) to the
   /// current frame, guided by `prior` (T_cur_ref) when given, and estimates T_cur_ref.
-  Estimation EstimateAgainst(const StereoFeatures& ref, const StereoFeatures& cur,
-                             const SE3* prior) const {
+  /// `consensus`: run the hypothesis stage first (options.consensus.enabled permitting).
+  Estimation EstimateAgainst(const StereoFeatures& ref, const StereoFeatures& cur, const SE3* prior,
+                             bool consensus) const {
     Estimation out;
     auto t0 = Clock::now();
     std::vector<std::pair<int, int>> point_matches, line_matches;
@@ -147,8 +151,10 @@ struct StereoTracker::Impl {
     out.matching_ms = MsSince(t0);
 
     t0 = Clock::now();
+    const Eigen::Vector3d kUnknown = Eigen::Vector3d::Constant(std::nan(""));
     PointMatches3D2D pm;
     LineMatches3D2D lm;
+    Points3D points_cur, lines_cur_P, lines_cur_Q;  // current-frame stereo 3D, for consensus
     pm.reserve(point_matches.size());
     for (const auto& [i, j] : point_matches) {
       PointMatch3D2D m;
@@ -157,6 +163,7 @@ struct StereoTracker::Impl {
       // Keypoints of coarser pyramid levels are localised less precisely.
       m.weight = std::pow(options.points.scale_factor, -2.0 * cur.points[j].octave);
       pm.push_back(m);
+      points_cur.push_back(cur.points[j].has_depth ? cur.points[j].p_c : kUnknown);
     }
     for (const auto& [i, j] : line_matches) {
       const LineFeature& lr = ref.lines[i];
@@ -167,10 +174,39 @@ struct StereoTracker::Impl {
       m.l_cur = cur.lines[j].l;
       m.weight = options.line_weight;
       lm.push_back(m);
+      const LineFeature& lc = cur.lines[j];
+      lines_cur_P.push_back(lc.has_depth ? lc.P_c : kUnknown);
+      lines_cur_Q.push_back(lc.has_depth ? lc.Q_c : kUnknown);
     }
-    out.est = EstimateMotion(camera, pm, lm, prior ? *prior : SE3(), options.motion);
+    SE3 start = prior ? *prior : SE3();
+    if (consensus && options.consensus.enabled) {
+      // Consensus before refinement: the refinement starts at the pose most correspondences
+      // agree with and never sees the ones far from it.
+      std::vector<SE3> candidates{start};
+      if (prior) candidates.push_back(SE3());
+      const ConsensusResult c =
+          FindMotionConsensus(camera, pm, points_cur, lm, lines_cur_P, lines_cur_Q, candidates,
+                              options.min_inliers, options.consensus);
+      out.consensus_inliers = c.point_inliers + c.line_inliers;
+      out.consensus_ok = c.success;
+      if (c.success) {
+        start = c.T_cur_prev;
+        pm = Gated(pm, c.point_gate);
+        lm = Gated(lm, c.line_gate);
+      }
+    }
+    out.est = EstimateMotion(camera, pm, lm, start, options.motion);
     out.motion_ms = MsSince(t0);
     return out;
+  }
+
+  template <typename Matches>
+  static Matches Gated(const Matches& all, const std::vector<uint8_t>& keep) {
+    Matches kept;
+    kept.reserve(all.size());
+    for (std::size_t i = 0; i < all.size(); ++i)
+      if (keep[i]) kept.push_back(all[i]);
+    return kept;
   }
 };
 
@@ -269,7 +305,8 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
   const SE3 prior = s.velocity_valid ? s.velocity_cur_prev : SE3();
   bool tracked = false;
   Impl::Estimation f2f;
-  if (s.has_previous) f2f = s.EstimateAgainst(s.previous, cur, s.velocity_valid ? &prior : nullptr);
+  if (s.has_previous)
+    f2f = s.EstimateAgainst(s.previous, cur, s.velocity_valid ? &prior : nullptr, true);
   result.point_matches = f2f.point_matches;
   result.line_matches = f2f.line_matches;
   result.stage_ms.emplace_back("matching", f2f.matching_ms);
@@ -306,7 +343,9 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     if (s.options.track_keyframe && s.has_keyframe) {
       t0 = Clock::now();
       const SE3 predicted = T_w_cur.inverse() * s.T_w_keyframe;  // T_cur_keyframe
-      const Impl::Estimation kf = s.EstimateAgainst(s.keyframe, cur, &predicted);
+      // No consensus stage here: the prediction comes from this frame's own estimate and the
+      // refinement is refused beyond keyframe_max_correction anyway.
+      const Impl::Estimation kf = s.EstimateAgainst(s.keyframe, cur, &predicted, false);
       const int kf_inliers = kf.est.point_inliers + kf.est.line_inliers;
       const int f2f_inliers = result.point_inliers + result.line_inliers;
       if (kf.est.success && kf_inliers >= s.options.min_inliers &&

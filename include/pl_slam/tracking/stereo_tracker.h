@@ -15,6 +15,7 @@
 #include "pl_slam/matching/line_matching.h"
 #include "pl_slam/matching/point_matching.h"
 #include "pl_slam/tracking/keyframe_selector.h"
+#include "pl_slam/tracking/motion_consensus.h"
 #include "pl_slam/tracking/motion_estimator.h"
 
 namespace pl_slam {
@@ -52,6 +53,7 @@ struct TrackerOptions {
   LineDetectorOptions lines;                 ///< "lines.*"
   LineMatchingOptions line_matching;         ///< "line_matching.*"
   MotionEstimatorOptions motion;             ///< "motion.*"
+  ConsensusOptions consensus;                ///< "consensus.*"
   KeyframeSelectorOptions keyframes;         ///< "keyframes.*"
 
   /// Empty when valid, else "key=value must be ..." naming the first bad key (with prefix).
