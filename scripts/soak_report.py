@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Judges a soak run (scripts/soak.sh): reads DIR/memory.csv (pl_slam_offline --memory-every)
-and DIR/frames.txt + DIR/trajectory.tum, prints the table for docs/RELIABILITY.md and fails
+and DIR/frames.txt + DIR/trajectory.tum, prints the table for docs/reliability.md and fails
 (exit 1) when
   - resident memory did not plateau: over the second half of the run it grew by more than 5%
     of its value at the half-way point,

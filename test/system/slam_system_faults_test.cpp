@@ -1,5 +1,5 @@
 // Fault cases of a live camera on a rendered sequence with exact ground truth, each with its
-// documented behaviour (docs/RELIABILITY.md): a frozen camera (the same image repeated) holds
+// documented behaviour (docs/reliability.md): a frozen camera (the same image repeated) holds
 // the pose and adds no keyframes; a sudden exposure change keeps tracking; bursts of dropped
 // frames are recovered, by tracking or relocalisation, in the same map frame.
 #include <functional>
