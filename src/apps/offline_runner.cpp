@@ -24,6 +24,7 @@
 #include "pl_slam/ros/bag_io.h"
 #include "pl_slam/system/slam_system.h"
 #include "pl_slam/util/cli.h"
+#include "pl_slam/util/config_doc.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 #include "pl_slam/util/option_table.h"
@@ -44,6 +45,7 @@ constexpr char kUsage[] =
     "  --mode M              features for tracking: points | lines | points_lines\n"
     "  --set K=V[,K=V...]    override options, e.g. --set tracker.points.max_points=600\n"
     "  --print-config        print every option with its value and meaning, then exit\n"
+    "  --print-config-markdown  the same as a Markdown page (docs/configuration.md), then exit\n"
     "  --quiet               only the summary\n"
     "  --realtime            feed frames at the recording's rate (live-like threaded mapping)\n"
     "  --memory-every N      every N frames, log resident memory, map size and mapping queue\n"
@@ -246,7 +248,7 @@ int Run(int argc, char** argv) {
       argc, argv,
       {"out", "max-frames", "left-topic", "right-topic", "left-info", "right-info", "gt-topic",
        "config", "mode", "set", "memory-every", "watchdog", "load-map", "save-map", "doffs"},
-      {"quiet", "help", "print-config", "realtime", "localization-only"});
+      {"quiet", "help", "print-config", "print-config-markdown", "realtime", "localization-only"});
   if (cl.Has("help")) {
     std::cout << kUsage;
     return 0;
@@ -262,6 +264,10 @@ int Run(int argc, char** argv) {
   }
   if (cl.Has("print-config")) {
     std::cout << table.Describe();
+    return 0;
+  }
+  if (cl.Has("print-config-markdown")) {
+    std::cout << pl_slam::OptionTableMarkdown(table);
     return 0;
   }
   // The vocabulary: the package's by default, relative paths relative to the package.
