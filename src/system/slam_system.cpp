@@ -93,8 +93,7 @@ SlamSystem::SlamSystem(const StereoCamera& camera, const SystemOptions& options)
   impl_->camera = camera;
   impl_->options = options;
   // mapping.ba.line_residual=auto: the observed-endpoint form in lines-only mode, where it
-  // measured better on every sequence, the paper's form otherwise (docs/BENCHMARKS.md,
-  // twelfth session).
+  // measured better on every benchmark sequence, the paper's form otherwise.
   std::string& line_residual = impl_->options.mapping.ba.line_residual;
   if (line_residual == "auto")
     line_residual = options.tracker.mode == FeatureMode::kLines ? "observed" : "projected";

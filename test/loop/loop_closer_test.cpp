@@ -105,7 +105,7 @@ TEST(LoopCloserTest, GlobalBundleAdjustmentAndItsFollowUpLowerTheError) {
             << " mm, with its follow-up " << with.ate * 1000 << " mm\n";
   // The first global BA has few observations across the loop's seam; the follow-up also has
   // the ones tracking and keyframe insertion made on the revisited part since (1.95 -> 1.45 mm
-  // when written, docs/BENCHMARKS.md, ninth session).
+  // when the test was written).
   EXPECT_LT(once.ate, no_loop.ate);
   EXPECT_LT(with.ate, once.ate);
 }

@@ -44,7 +44,7 @@ struct LoopClosingOptions {
   int global_ba_iterations = 10;  ///< its Levenberg-Marquardt iterations
   /// Keyframes after a correction (with global_ba), one more global BA of the whole map; 0 =
   /// none. By then tracking and keyframe insertion have re-observed the revisited area through
-  /// the fused landmarks, which the first global BA lacked (docs/BENCHMARKS.md, ninth session).
+  /// the fused landmarks, which the first global BA lacked.
   int global_ba_followup = 5;
   KeyframeDatabaseOptions database;  ///< "database.*"
   RelativePoseOptions verification;  ///< "verification.*"

@@ -32,7 +32,7 @@ struct MappingOptions {
   int queue_size = 4;    ///< keyframes waiting for mapping; a full queue drops new ones
   /// Threaded: the mapping thread (and the global BA it starts) runs this many nice steps
   /// below the tracking thread (0-19), so a bundle adjustment uses the CPU time tracking
-  /// leaves over instead of delaying frames (docs/BENCHMARKS.md, eleventh session).
+  /// leaves over instead of delaying frames.
   int thread_niceness = 10;
   int window = 10;  ///< keyframes optimised by local BA (the new one and its best covisible)
   int max_fixed_keyframes = 20;  ///< other keyframes observing the window's landmarks, held fixed

@@ -30,7 +30,7 @@ struct KeyframeSelectorOptions {
   /// after the last one, once the camera has moved (min_translation / min_rotation_deg), as
   /// ORB-SLAM does: the map takes as many keyframes as mapping can process and culling removes
   /// the redundant ones later. 0 = off (the default: measured better on some sequences and
-  /// worse on others, with twice the memory; docs/BENCHMARKS.md, eleventh session). Without
+  /// worse on others, with twice the memory). Without
   /// mapping (visual odometry alone) it never fires.
   int idle_min_frames = 0;
   /// Keyframe when the current frame has fewer point + line inliers than this: the next frames
