@@ -9,6 +9,7 @@
 #include <utility>
 #include <vector>
 
+#include "pl_slam/sim/lowtex_scenes.h"
 #include "pl_slam/util/error.h"
 
 namespace pl_slam::sim {
@@ -186,11 +187,21 @@ SE3 RoomLoopPose(double theta) {
 
 }  // namespace
 
+const std::vector<SceneKind>& AllSceneKinds() {
+  static const std::vector<SceneKind> kinds = {
+      SceneKind::kRoom,          SceneKind::kCorridor,       SceneKind::kFastTurn,
+      SceneKind::kLowtexCorner,  SceneKind::kLowtexStraight, SceneKind::kLowtexSpin,
+      SceneKind::kLowtexDoorway, SceneKind::kLowtexWall,     SceneKind::kLowtexOffice};
+  return kinds;
+}
+
 SceneKind ParseSceneKind(const std::string& name) {
-  if (name == "room") return SceneKind::kRoom;
-  if (name == "corridor") return SceneKind::kCorridor;
-  if (name == "fast_turn") return SceneKind::kFastTurn;
-  throw ConfigError("scene='" + name + "' is not a scene; allowed: room, corridor, fast_turn");
+  std::string allowed;
+  for (SceneKind kind : AllSceneKinds()) {
+    if (name == SceneKindName(kind)) return kind;
+    allowed += (allowed.empty() ? "" : ", ") + SceneKindName(kind);
+  }
+  throw ConfigError("scene='" + name + "' is not a scene; allowed: " + allowed);
 }
 
 std::string SceneKindName(SceneKind kind) {
@@ -201,6 +212,18 @@ std::string SceneKindName(SceneKind kind) {
       return "corridor";
     case SceneKind::kFastTurn:
       return "fast_turn";
+    case SceneKind::kLowtexCorner:
+      return "lowtex_corner";
+    case SceneKind::kLowtexStraight:
+      return "lowtex_straight";
+    case SceneKind::kLowtexSpin:
+      return "lowtex_spin";
+    case SceneKind::kLowtexDoorway:
+      return "lowtex_doorway";
+    case SceneKind::kLowtexWall:
+      return "lowtex_wall";
+    case SceneKind::kLowtexOffice:
+      return "lowtex_office";
   }
   return "unknown";
 }
@@ -213,8 +236,9 @@ int DefaultNumFrames(SceneKind kind) {
       return 300;
     case SceneKind::kFastTurn:
       return 200;
+    default:
+      return LowtexDefaultNumFrames(kind, 7, 20.0);
   }
-  return 0;
 }
 
 SE3 CameraPoseFromYawPitchRoll(const Eigen::Vector3d& p_w, double yaw, double pitch, double roll) {
@@ -253,7 +277,7 @@ int AddBox(World* world, const Eigen::Vector3d& min_w, const Eigen::Vector3d& ma
 }
 
 Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_time_s,
-                 uint64_t world_seed, int loops) {
+                 uint64_t world_seed, int loops, bool bare) {
   if (num_frames < 0) {
     throw ConfigError("num_frames=" + std::to_string(num_frames) + " must be >= 0");
   }
@@ -261,6 +285,9 @@ Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_ti
     std::ostringstream os;
     os << "rate_hz=" << rate_hz << " must be a positive number";
     throw ConfigError(os.str());
+  }
+  if (IsLowtexScene(kind)) {
+    return BuildLowtexScene(kind, num_frames, rate_hz, start_time_s, world_seed, bare);
   }
   loops = std::max(1, loops);
   const int n =
@@ -310,6 +337,8 @@ Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_ti
       });
       break;
     }
+    default:
+      break;
   }
   return scene;
 }

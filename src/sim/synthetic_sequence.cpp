@@ -12,6 +12,9 @@
 #include <utility>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
+
+#include "pl_slam/sim/lowtex_scenes.h"
 #include "pl_slam/sim/procedural_texture.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
@@ -103,6 +106,12 @@ const std::vector<OptionField>& OptionFields() {
       NumberField("world_seed", &SequenceOptions::world_seed),
       NumberField("start_time_s", &SequenceOptions::start_time_s),
       NumberField("edge_supersampling", &SequenceOptions::edge_supersampling),
+      {"bare", [](SequenceOptions* o, const std::string& v) { o->bare = ParseBool("bare", v); },
+       [](const SequenceOptions& o) { return std::string(o.bare ? "true" : "false"); }},
+      NumberField("blur_sigma", &SequenceOptions::blur_sigma),
+      NumberField("vignetting", &SequenceOptions::vignetting),
+      NumberField("exposure_gain", &SequenceOptions::exposure_gain),
+      NumberField("exposure_offset", &SequenceOptions::exposure_offset),
   };
   return fields;
 }
@@ -128,7 +137,36 @@ std::string SequenceOptions::Validate() const {
   // Stamps are int64 nanoseconds (overflow past 9.2e9 s); dataset clocks are Unix times.
   check(CheckRange("start_time_s", start_time_s, 0.0, 4e9));
   check(CheckRange("edge_supersampling", edge_supersampling, 1, 16));
+  check(CheckRange("blur_sigma", blur_sigma, -1.0, 20.0));
+  check(CheckRange("vignetting", vignetting, -1.0, 0.9));
+  check(CheckRange("exposure_gain", exposure_gain, 0.05, 10.0));
+  check(CheckRange("exposure_offset", exposure_offset, -255.0, 255.0));
   return first;
+}
+
+double SequenceOptions::EffectiveBlurSigma() const {
+  if (blur_sigma >= 0.0) return blur_sigma;
+  return IsLowtexScene(scene) ? 0.6 : 0.0;
+}
+
+double SequenceOptions::EffectiveVignetting() const {
+  if (vignetting >= 0.0) return vignetting;
+  return IsLowtexScene(scene) ? 0.08 : 0.0;
+}
+
+void ApplyExposurePreset(const std::string& preset, SequenceOptions* options) {
+  if (preset == "normal") {
+    options->exposure_gain = 1.0;
+    options->exposure_offset = 0.0;
+  } else if (preset == "dim") {
+    options->exposure_gain = 0.45;
+    options->exposure_offset = 0.0;
+  } else if (preset == "bright") {
+    options->exposure_gain = 1.4;
+    options->exposure_offset = 0.0;
+  } else {
+    throw ConfigError("exposure='" + preset + "' is not a preset; allowed: normal, dim, bright");
+  }
 }
 
 void SequenceOptions::Set(const std::string& key, const std::string& value) {
@@ -152,8 +190,9 @@ std::string SequenceOptions::ToString() const {
 SyntheticSequence::SyntheticSequence(const SequenceOptions& options) : options_(options) {
   const std::string bad = options_.Validate();
   if (!bad.empty()) throw ConfigError("synthetic sequence: " + bad);
-  Scene scene = BuildScene(options_.scene, options_.num_frames, options_.rate_hz,
-                           options_.start_time_s, options_.world_seed, options_.loops);
+  Scene scene =
+      BuildScene(options_.scene, options_.num_frames, options_.rate_hz, options_.start_time_s,
+                 options_.world_seed, options_.loops, options_.bare);
   world_ = std::move(scene.world);
   ground_truth_ = std::move(scene.ground_truth);
   Init();
@@ -183,6 +222,18 @@ void SyntheticSequence::Init() {
   camera_.width = options_.width;
   camera_.height = options_.height;
   renderer_ = std::make_unique<Renderer>(world_, camera_, options_.edge_supersampling);
+  const double vignetting = options_.EffectiveVignetting();
+  if (vignetting > 0.0) {
+    vignette_.create(options_.height, options_.width, CV_32F);
+    const double r2_corner = camera_.cx * camera_.cx + camera_.cy * camera_.cy;
+    for (int v = 0; v < options_.height; ++v) {
+      float* row = vignette_.ptr<float>(v);
+      for (int u = 0; u < options_.width; ++u) {
+        const double du = u - camera_.cx, dv = v - camera_.cy;
+        row[u] = static_cast<float>(1.0 - vignetting * (du * du + dv * dv) / r2_corner);
+      }
+    }
+  }
   PL_LOG_DEBUG("synthetic sequence options:\n" << options_.ToString());
   PL_LOG_INFO(Describe() << " (" << world_->quads().size() << " quads)");
 }
@@ -193,6 +244,9 @@ std::string SyntheticSequence::Describe() const {
      << (custom_world_ ? std::string("custom world") : SceneKindName(options_.scene)) << ": "
      << size() << " frames at " << options_.rate_hz << " Hz, " << options_.width << "x"
      << options_.height << ", seed " << options_.seed;
+  if (!custom_world_ && IsLowtexScene(options_.scene)) {
+    os << ", world seed " << options_.world_seed << (options_.bare ? ", bare" : ", textured");
+  }
   return os.str();
 }
 
@@ -211,13 +265,23 @@ SE3 SyntheticSequence::RightPose(int index) const {
 
 Exposure SyntheticSequence::ExposureAt(int index) const {
   Exposure e;
+  e.gain = options_.exposure_gain;
+  e.offset = options_.exposure_offset;
   if (!options_.exposure_change) return e;
   const double t = index / options_.rate_hz;
   const double w = 2.0 * kPi / options_.exposure_period_s;
-  e.gain = 1.0 + options_.exposure_gain_amplitude * std::sin(w * t);
+  e.gain *= 1.0 + options_.exposure_gain_amplitude * std::sin(w * t);
   // A different period than the gain's, so that gain and offset are not locked together.
-  e.offset = options_.exposure_offset_amplitude * std::sin(0.7 * w * t + 1.0);
+  e.offset += options_.exposure_offset_amplitude * std::sin(0.7 * w * t + 1.0);
   return e;
+}
+
+std::vector<VisibleEdge, Eigen::aligned_allocator<VisibleEdge>>
+SyntheticSequence::VisibleStructuralEdges(int index, const EdgeVisibilityOptions& options) const {
+  CheckIndex(index);
+  if (world_->StructuralEdges().empty()) return {};
+  return ProjectStructuralEdges(*world_, camera_, ground_truth_[index].T_w_c, RenderDepth(index),
+                                options);
 }
 
 RenderedView SyntheticSequence::RenderGroundTruth(int index, bool right) const {
@@ -227,8 +291,15 @@ RenderedView SyntheticSequence::RenderGroundTruth(int index, bool right) const {
 
 cv::Mat SyntheticSequence::Finish(const cv::Mat& radiance, const Exposure& exposure, int index,
                                   int cam) const {
+  // Optics first (blur, vignetting), then the sensor (exposure, noise, 8-bit quantisation).
+  cv::Mat optical = radiance;
+  const double blur = options_.EffectiveBlurSigma();
+  if (blur > 0.0) {
+    cv::GaussianBlur(radiance, optical, cv::Size(0, 0), blur, blur, cv::BORDER_REPLICATE);
+  }
+  if (!vignette_.empty()) optical = optical.mul(vignette_);
   cv::Mat grey;
-  radiance.convertTo(grey, CV_32F, exposure.gain, exposure.offset);
+  optical.convertTo(grey, CV_32F, exposure.gain, exposure.offset);
   if (options_.noise_sigma > 0.0) {
     // An independent, reproducible noise stream per (seed, frame, camera).
     cv::RNG rng(

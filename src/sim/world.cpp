@@ -48,6 +48,14 @@ int World::AddQuad(const TexturedQuad& quad) {
   return static_cast<int>(quads_.size()) - 1;
 }
 
+void World::AddStructuralEdge(const Eigen::Vector3d& a_w, const Eigen::Vector3d& b_w) {
+  if (!((a_w - b_w).norm() > 1e-9) || !a_w.allFinite() || !b_w.allFinite()) return;
+  Segment3D e;
+  e.a = a_w;
+  e.b = b_w;
+  edges_.push_back(e);
+}
+
 RayHit World::RayCast(const Eigen::Vector3d& origin_w, const Eigen::Vector3d& dir_w,
                       double min_lambda) const {
   RayHit best;

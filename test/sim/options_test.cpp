@@ -110,7 +110,7 @@ TEST(SequenceOptionsTest, ToStringRoundTripsThroughSet) {
     b.Set(line.substr(0, colon), line.substr(colon + 2));
     ++keys;
   }
-  EXPECT_EQ(keys, 17);
+  EXPECT_EQ(keys, 22);
   EXPECT_EQ(b.ToString(), a.ToString());
   EXPECT_EQ(b.scene, SceneKind::kFastTurn);
   EXPECT_EQ(b.seed, 123456789012345ULL);

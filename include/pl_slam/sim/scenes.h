@@ -19,12 +19,35 @@
 //             down to 40 m to bound texture memory); the corridor is sized to the walk.
 //   fast_turn the room; the camera drifts slowly (0.16 m/s) on a 0.35 m circle while yawing
 //             left up to 85 deg/s and back (period 10 s; default 200 frames).
+//
+// The low-texture family (lowtex_scenes.h): 2.6 m high, plain walls with a faint smooth
+// gradient and the structural edges of real buildings, camera 1.5 m high, walking 1-1.4 m/s;
+// each has a textured default and a bare variant (SequenceOptions::bare). The world seed
+// jitters sizes, door positions and turn directions; the default length is the whole walk
+// (seed-dependent, 200-260 frames at 20 Hz). Their sequences default to 0.6 px blur and 8 %
+// vignetting (SequenceOptions::blur_sigma, vignetting).
+//   lowtex_corner    Z-shaped 2 m wide corridor (legs 5-6.5, 3.5-5, 4.5-6 m, middle leg left
+//                    or right), walked at 1.25 m/s slowing to 0.85 m/s in the two 90-degree
+//                    turns (radius 1 m, ~1.8 s each), gaze leading the walk by 0.5 s.
+//   lowtex_straight  straight 2 m wide corridor, 11-13 m walked at 1.3 m/s, gaze swaying
+//                    +-7 degrees.
+//   lowtex_spin      four-way junction with a 3.2 x 3.2 m hub: walks in, turns 270 degrees on
+//                    the spot (up to ~80 deg/s, left or right) and walks out a branch.
+//   lowtex_doorway   corridor, a 90-degree turn through a 1.1 m doorway in a 12 cm wall into
+//                    a plain 4.5-5.5 x 4.2-5 m room, across it and a turn to its wider side.
+//   lowtex_wall      plain room: walks up to a bare wall until it fills the view at 0.6-0.8 m
+//                    (a light switch in view; textured: a poster partly in view), turns away
+//                    150 degrees and walks off.
+//   lowtex_office    plain room with three shelf units seen head-on (approached, then passed
+//                    sideways at 1.8 m; textured: books), a desk, a whiteboard the walk turns
+//                    to at the end.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "pl_slam/geometry/se3.h"
 #include "pl_slam/io/trajectory.h"
@@ -34,16 +57,30 @@
 namespace pl_slam::sim {
 
 /// The built-in scenes.
-enum class SceneKind { kRoom, kCorridor, kFastTurn };
+enum class SceneKind {
+  kRoom,
+  kCorridor,
+  kFastTurn,
+  kLowtexCorner,
+  kLowtexStraight,
+  kLowtexSpin,
+  kLowtexDoorway,
+  kLowtexWall,
+  kLowtexOffice,
+};
 
-/// Parses "room", "corridor" or "fast_turn"; throws pl_slam::ConfigError naming the value
-/// and the allowed names.
+/// Every scene kind, in declaration order.
+const std::vector<SceneKind>& AllSceneKinds();
+
+/// Parses a scene name (SceneKindName of any kind: "room", "corridor", "fast_turn",
+/// "lowtex_corner", ...); throws pl_slam::ConfigError naming the value and the allowed names.
 SceneKind ParseSceneKind(const std::string& name);
 
 /// The name ParseSceneKind accepts for this kind.
 std::string SceneKindName(SceneKind kind);
 
-/// Default sequence length (frames) of a scene.
+/// Default sequence length (frames) of a scene. Lowtex scenes: the whole walk at 20 Hz in the
+/// layout of world seed 7 (other seeds and rates: LowtexDefaultNumFrames).
 int DefaultNumFrames(SceneKind kind);
 
 /// A world and the trajectory of the left camera through it.
@@ -56,9 +93,10 @@ struct Scene {
 /// i / rate_hz. world_seed drives the procedural textures and layout jitter. Throws
 /// ConfigError on num_frames < 0 or rate_hz <= 0. `loops` > 1 sends the room's camera round
 /// its loop that many times (the default length scales with it; long-run and soak tests);
-/// the other scenes ignore it.
+/// the other scenes ignore it. `bare` selects the lowtex scenes' bare variant (ignored by
+/// the others).
 Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_time_s,
-                 uint64_t world_seed, int loops = 1);
+                 uint64_t world_seed, int loops = 1, bool bare = false);
 
 /// Left-camera pose at world position p_w with the given attitude: yaw about world z
 /// (0 = optical axis along +x), pitch > 0 tilts the optical axis down, roll about it.

@@ -10,6 +10,7 @@
 #include "pl_slam/io/stereo_source.h"
 #include "pl_slam/sim/renderer.h"
 #include "pl_slam/sim/scenes.h"
+#include "pl_slam/sim/structural_edges.h"
 #include "pl_slam/sim/world.h"
 
 namespace pl_slam::sim {
@@ -33,6 +34,23 @@ struct SequenceOptions {
   uint64_t world_seed = 7;                  ///< seeds the procedural textures (the world itself)
   double start_time_s = 0.0;                ///< stamp of frame 0, seconds
   int edge_supersampling = 4;               ///< k x k rays per pixel on occlusion edges (1 = off)
+  bool bare = false;  ///< lowtex scenes: the bare variant (no posters, tiles, grid, lights, seams)
+  /// Gaussian blur (optics) std in pixels, applied to the radiance before vignetting, gain
+  /// and noise; 0 = none; < 0 = the scene's default (0.6 for lowtex scenes, else none).
+  double blur_sigma = -1.0;
+  /// Vignetting: brightness falls as 1 - vignetting * (r / r_corner)^2 with the distance r
+  /// from the principal point (the image corners lose this fraction); 0 = none; < 0 = the
+  /// scene's default (0.08 for lowtex scenes, else none).
+  double vignetting = -1.0;
+  /// Constant exposure gain (a dim or bright camera; e.g. dim 0.45, bright 1.4), applied
+  /// together with exposure_change's: grey = gain * radiance + offset, saturating at 0 and 255.
+  double exposure_gain = 1.0;
+  double exposure_offset = 0.0;  ///< constant exposure offset, grey levels
+
+  /// blur_sigma with the scene default resolved.
+  double EffectiveBlurSigma() const;
+  /// vignetting with the scene default resolved.
+  double EffectiveVignetting() const;
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;
@@ -42,6 +60,11 @@ struct SequenceOptions {
   /// The effective configuration, one "key: value" per line, for logs.
   std::string ToString() const;
 };
+
+/// Sets exposure_gain and exposure_offset from a preset name: "normal" (1, 0), "dim"
+/// (0.45, 0: underexposed, compressed contrast) or "bright" (1.4, 0: overexposed, light
+/// surfaces clip at 255). Throws ConfigError naming the value and the allowed names.
+void ApplyExposurePreset(const std::string& preset, SequenceOptions* options);
 
 /// Gain and offset applied to a frame's radiance before noise: grey = gain * radiance +
 /// offset + noise.
@@ -83,9 +106,15 @@ class SyntheticSequence : public StereoSource {
   RenderedView RenderGroundTruth(int index, bool right = false) const;
   /// Depth (CV_32FC1, metres, 0 = nothing) of each left-image pixel of frame `index`.
   cv::Mat RenderDepth(int index) const { return RenderGroundTruth(index).depth; }
+  /// The world's structural edges visible in the left image of frame `index`
+  /// (ProjectStructuralEdges against the frame's rendered depth); empty for worlds without
+  /// recorded edges (room, corridor, fast_turn).
+  std::vector<VisibleEdge, Eigen::aligned_allocator<VisibleEdge>> VisibleStructuralEdges(
+      int index, const EdgeVisibilityOptions& options = EdgeVisibilityOptions()) const;
   /// Pose of the right camera at frame `index`.
   SE3 RightPose(int index) const;
-  /// Exposure of frame `index` (identity when exposure_change is off).
+  /// Exposure of frame `index`: exposure_gain and exposure_offset, modulated over time when
+  /// exposure_change is on.
   Exposure ExposureAt(int index) const;
   /// Restarts Next() from the first frame.
   void Rewind() { next_ = 0; }
@@ -101,6 +130,8 @@ class SyntheticSequence : public StereoSource {
   void Init();
   void CheckIndex(int index) const;
   cv::Mat Finish(const cv::Mat& radiance, const Exposure& exposure, int index, int cam) const;
+  // Per-pixel vignetting factors (empty when off).
+  cv::Mat vignette_;
 
   SequenceOptions options_;
   std::shared_ptr<const World> world_;

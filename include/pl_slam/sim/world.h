@@ -57,6 +57,15 @@ struct RayHit {
   Eigen::Vector3d point_w = Eigen::Vector3d::Zero();  ///< hit point, world frame
 };
 
+/// A straight 3D edge of the world's structure (a room corner, the top of a baseboard, a door
+/// frame's outline, a rail's or pipe's edge): ground truth for line detectors. Endpoints are
+/// in the world frame.
+struct Segment3D {
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();  ///< first endpoint, world
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();  ///< second endpoint, world
+};
+
 /// A static scene of textured quads. Built once, then shared read-only by renderers.
 class World {
  public:
@@ -66,6 +75,15 @@ class World {
   /// All quads, in insertion order (the order only breaks exact depth ties).
   const std::vector<TexturedQuad, Eigen::aligned_allocator<TexturedQuad>>& quads() const {
     return quads_;
+  }
+
+  /// Records a structural edge (see Segment3D). Scenes that record them list every straight
+  /// intensity edge of their structure that a line detector should find; texture detail
+  /// (posters, tiles, ceiling grid) is not listed. Zero-length edges are ignored.
+  void AddStructuralEdge(const Eigen::Vector3d& a_w, const Eigen::Vector3d& b_w);
+  /// The recorded structural edges (empty for worlds that record none: room, corridor).
+  const std::vector<Segment3D, Eigen::aligned_allocator<Segment3D>>& StructuralEdges() const {
+    return edges_;
   }
 
   /// Grey level seen where a ray hits nothing.
@@ -83,6 +101,7 @@ class World {
 
  private:
   std::vector<TexturedQuad, Eigen::aligned_allocator<TexturedQuad>> quads_;
+  std::vector<Segment3D, Eigen::aligned_allocator<Segment3D>> edges_;
   float background_ = 0.0f;
 };
 
