@@ -255,6 +255,36 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     r.is_keyframe = false;
     r.warning = "waiting to relocalise in the loaded map";
   }
+  // (last_features() are this frame's only when it had some with depth.)
+  if (!r.pose_valid && r.state == TrackerState::kLost && !s.relocalize_first && s.mapper &&
+      s.options.mapping.track_local_map && r.points_stereo + r.lines_stereo > 0 &&
+      s.map->LastKeyframe() != kNoId) {
+    // Before the frame is given up: the local map (points and segments), searched around the
+    // motion model's prediction.
+    const auto t0 = Clock::now();
+    s.RefreshLocalMap();
+    if (!s.local_map.point_ids.empty() || !s.local_map.line_ids.empty()) {
+      const LocalMapTracking rescue =
+          TrackLocalMap(s.camera, s.tracker->last_features(), s.local_map, r.T_w_c,
+                        s.options.mapping, s.front_end);
+      if (rescue.success &&
+          rescue.point_inliers + rescue.line_inliers >= s.options.tracker.min_inliers) {
+        s.tracker->Rescued(rescue.T_w_c);
+        r.pose_valid = true;
+        r.state = TrackerState::kTracking;
+        r.T_w_c = rescue.T_w_c;
+        r.predicted = false;
+        r.is_keyframe = false;
+        r.warning.clear();
+        result.map_rescued = true;
+        PL_LOG_DEBUG("frame " << frame.index << ": visual odometry lost, the local map held ("
+                              << rescue.point_inliers << " point and " << rescue.line_inliers
+                              << " line inliers)");
+      }
+    }
+    r.stage_ms.emplace_back("rescue",
+                            std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+  }
   if (!r.pose_valid && s.loop && s.options.loop.relocalize &&
       r.points_stereo + r.lines_stereo > 0 && s.map->LastKeyframe() != kNoId) {
     // Lost: look for the place in the map before restarting from the last pose.
@@ -288,6 +318,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   result.state = s.state;
   result.T_w_c = r.T_w_c;
   result.pose_valid = r.pose_valid;
+  result.predicted = r.predicted;
   result.covariance = r.covariance_prev_cur;
   result.is_keyframe = r.is_keyframe;
   result.points_detected = r.points_detected;

@@ -29,6 +29,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "largest accepted keyframe refinement, m");
   t.Add("tracker.keyframe_max_correction_deg", &tr.keyframe_max_correction_deg,
         "largest accepted keyframe refinement, deg");
+  t.Add("tracker.max_predicted_frames", &tr.max_predicted_frames,
+        "while lost the pose follows the motion model for this many frames (0 = off)");
 
   PointDetectorOptions& p = tr.points;
   t.Add("tracker.points.max_points", &p.max_points, "ORB keypoints kept per image");

@@ -1,5 +1,6 @@
 #include "pl_slam/tracking/stereo_tracker.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <sstream>
@@ -45,6 +46,8 @@ std::string TrackerOptions::Validate() const {
     os << "keyframe_max_correction=" << keyframe_max_correction << " must be in (0, 100]";
   else if (!(keyframe_max_correction_deg > 0.0 && keyframe_max_correction_deg <= 180.0))
     os << "keyframe_max_correction_deg=" << keyframe_max_correction_deg << " must be in (0, 180]";
+  else if (max_predicted_frames < 0 || max_predicted_frames > 1000)
+    os << "max_predicted_frames=" << max_predicted_frames << " must be in [0, 1000]";
   if (!os.str().empty()) return os.str();
   const std::pair<const char*, std::string> nested[] = {
       {"points.", points.Validate()},      {"point_matching.", point_matching.Validate()},
@@ -85,12 +88,17 @@ struct StereoTracker::Impl {
   bool initialized = false;
   StereoFeatures previous;
   SE3 T_w_c;
+  // Pose given to `previous` and the frames since it: a frame without features (blank) does
+  // not replace it, while the motion model may still move T_w_c on.
+  SE3 T_w_previous;
+  int frames_since_previous = 0;
   // The last keyframe (track_keyframe): its features, in its camera frame, and its pose.
   bool has_keyframe = false;
   StereoFeatures keyframe;
   SE3 T_w_keyframe;
   SE3 velocity_cur_prev;  // last T_cur_prev: the constant-velocity prior
   bool velocity_valid = false;
+  int predicted_frames = 0;  // consecutive lost frames whose pose the motion model gave
   TrackerState state = TrackerState::kNotInitialized;
   WorkerThread right_worker;  // detects the right image's features (options.parallel)
 
@@ -228,10 +236,25 @@ void StereoTracker::Reset() {
   s.initialized = false;
   s.previous = StereoFeatures();
   s.T_w_c = SE3();
+  s.T_w_previous = SE3();
+  s.frames_since_previous = 0;
   s.velocity_cur_prev = SE3();
   s.velocity_valid = false;
+  s.predicted_frames = 0;
   s.state = TrackerState::kNotInitialized;
   s.selector.Reset();
+  s.has_keyframe = false;
+}
+
+void StereoTracker::Rescued(const SE3& T_w_c) {
+  Impl& s = *impl_;
+  if (!T_w_c.IsFinite()) return;
+  s.T_w_c = T_w_c;
+  s.T_w_previous = T_w_c;
+  s.state = TrackerState::kTracking;
+  s.predicted_frames = 0;
+  s.selector.Reset();
+  s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
   s.has_keyframe = false;
 }
 
@@ -240,7 +263,9 @@ void StereoTracker::CorrectPose(const SE3& T_w_c) {
   if (!T_w_c.IsFinite()) return;
   // The keyframe moves with the frame, so the next keyframe-relative pose is in the
   // corrected frame too.
-  s.T_w_keyframe = T_w_c * s.T_w_c.inverse() * s.T_w_keyframe;
+  const SE3 correction = T_w_c * s.T_w_c.inverse();
+  s.T_w_keyframe = correction * s.T_w_keyframe;
+  s.T_w_previous = correction * s.T_w_previous;
   s.T_w_c = T_w_c;
 }
 
@@ -248,6 +273,7 @@ void StereoTracker::Relocalized(const SE3& T_w_c) {
   Impl& s = *impl_;
   if (!T_w_c.IsFinite()) return;
   s.T_w_c = T_w_c;
+  s.T_w_previous = T_w_c;
   s.initialized = true;
   s.state = TrackerState::kTracking;
   s.velocity_valid = false;
@@ -302,7 +328,12 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
 
   // 3-4. Frame-to-frame matching, guided by the constant-velocity prior when there is one,
   //      and robust motion estimation.
-  const SE3 prior = s.velocity_valid ? s.velocity_cur_prev : SE3();
+  // After frames without features the previous features are older: the prior spans the gap.
+  if (s.has_previous) ++s.frames_since_previous;
+  SE3 prior;
+  for (int k = 0; k < std::min(s.frames_since_previous, 1000); ++k)
+    prior = s.velocity_cur_prev * prior;
+  if (!s.velocity_valid) prior = SE3();
   bool tracked = false;
   Impl::Estimation f2f;
   if (s.has_previous)
@@ -338,7 +369,7 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
   // 4b. The same against the last keyframe, predicted by the frame-to-frame pose: one
   //     estimate per keyframe interval instead of a chain of per-frame ones.
   if (tracked) {
-    const SE3 T_w_prev = s.T_w_c;
+    const SE3 T_w_prev = s.T_w_previous;
     SE3 T_w_cur = T_w_prev * result.T_prev_cur;
     if (s.options.track_keyframe && s.has_keyframe) {
       t0 = Clock::now();
@@ -365,8 +396,12 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       result.stage_ms.emplace_back("keyframe_match", MsSince(t0));
     }
     s.T_w_c = T_w_cur;
-    s.velocity_cur_prev = result.T_prev_cur.inverse();
-    s.velocity_valid = true;
+    // Over a gap the increment spans several frames: the per-frame velocity is kept.
+    if (s.frames_since_previous <= 1 || !s.velocity_valid) {
+      s.velocity_cur_prev = result.T_prev_cur.inverse();
+      s.velocity_valid = true;
+    }
+    s.predicted_frames = 0;
   }
 
   // 5. State, keyframe decision and the new reference frame.
@@ -393,11 +428,27 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
                             result.point_inliers + result.line_inliers, mapping_idle);
     result.is_keyframe = result.keyframe_reason != KeyframeReason::kNone;
   } else {
-    // Lost: restart from the last pose with this frame as the new reference. The trajectory
-    // gets a gap (no pose for this frame), never a jump; the caller is told why.
+    // Lost: this frame becomes the new reference. For a few frames the pose follows the
+    // constant-velocity model (the camera keeps moving while it is not tracked), then it
+    // stays at the last pose. The trajectory gets a gap (no valid pose for this frame), never
+    // a jump; the caller is told why.
     s.state = TrackerState::kLost;
-    s.velocity_valid = false;
     s.selector.Reset();
+    if (s.velocity_valid && s.predicted_frames < s.options.max_predicted_frames) {
+      const SE3 T_prev_cur = s.velocity_cur_prev.inverse();
+      s.T_w_c = s.T_w_c * T_prev_cur;
+      ++s.predicted_frames;
+      result.predicted = true;
+      result.T_prev_cur = T_prev_cur;
+      // The motion model's uncertainty: the increment's own size as its standard deviation
+      // (at least 1 cm and 0.5 deg), so a consumer never over-trusts a prediction.
+      const double st = std::max(0.01, T_prev_cur.translation().norm());
+      const double sr = std::max(0.5 * M_PI / 180.0, T_prev_cur.RotationAngle());
+      result.covariance_prev_cur.setZero();
+      result.covariance_prev_cur.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
+    } else {
+      s.velocity_valid = false;
+    }
   }
   if (s.state != TrackerState::kTracking) s.has_keyframe = false;
   if (result.is_keyframe && s.options.track_keyframe) {
@@ -408,6 +459,8 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
   if (usable > 0) {
     s.previous = std::move(cur);
     s.has_previous = true;
+    s.T_w_previous = s.T_w_c;
+    s.frames_since_previous = 0;
   }
   result.state = s.state;
   result.pose_valid = tracked;

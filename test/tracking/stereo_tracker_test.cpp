@@ -125,5 +125,58 @@ TEST(StereoTrackerTest, APoseCorrectionMovesTheKeyframeReferenceToo) {
   EXPECT_GT(refined_after, 5);
 }
 
+// Frames that cannot be tracked in the middle of a walk (each shows another random pattern:
+// features and stereo depth, but nothing to match): while lost the pose follows the motion
+// model (flagged, not valid), so when the room comes back tracking resumes where the camera
+// is, not where it was last seen; staying at the last pose (max_predicted_frames 0) leaves the
+// gap's motion out of the trajectory for good.
+TEST(StereoTrackerTest, WhileLostThePoseFollowsTheMotionModel) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kRoom;
+  const sim::SyntheticSequence seq(so);
+  const int w = seq.camera().width, h = seq.camera().height;
+  auto garbage = [&](int seed, StereoFrame* frame) {
+    cv::Mat small(h / 8, w / 8, CV_8UC1), left;
+    cv::RNG(seed).fill(small, cv::RNG::UNIFORM, 0, 256);
+    cv::resize(small, left, cv::Size(w, h), 0, 0, cv::INTER_NEAREST);
+    cv::Mat right = cv::Mat::zeros(left.size(), CV_8UC1);
+    left(cv::Rect(10, 0, w - 10, h)).copyTo(right(cv::Rect(0, 0, w - 10, h)));
+    frame->left = left;
+    frame->right = right;
+  };
+  auto error_after_gap = [&](int max_predicted, int* predicted) {
+    TrackerOptions options;
+    options.max_predicted_frames = max_predicted;
+    StereoTracker tracker(seq.camera(), options);
+    const SE3 T_w0 = seq.ground_truth()[0].T_w_c;
+    double error = -1.0;
+    *predicted = 0;
+    for (int i = 0; i < 30; ++i) {
+      StereoFrame frame = seq.Render(i);
+      const bool bad = i >= 15 && i < 19;
+      if (bad) garbage(i, &frame);
+      const TrackerResult r = tracker.Track(frame);
+      EXPECT_TRUE(r.T_w_c.IsFinite());
+      if (bad) EXPECT_FALSE(r.pose_valid) << "frame " << i;
+      if (i >= 21) EXPECT_TRUE(r.pose_valid) << "frame " << i;
+      *predicted += r.predicted;
+      if (i == 29) {
+        const SE3 truth = T_w0.inverse() * seq.ground_truth()[i].T_w_c;
+        error = (r.T_w_c.translation() - truth.translation()).norm();
+      }
+    }
+    return error;
+  };
+  int predicted = 0, predicted_off = 0;
+  const double with = error_after_gap(10, &predicted);
+  const double without = error_after_gap(0, &predicted_off);
+  std::cout << "pose error 10 frames after a 4-frame loss: " << with * 1000
+            << " mm with the motion model, " << without * 1000 << " mm without\n";
+  EXPECT_GE(predicted, 4);
+  EXPECT_EQ(predicted_off, 0);
+  EXPECT_LT(with, 0.02);
+  EXPECT_LT(with, 0.5 * without);
+}
+
 }  // namespace
 }  // namespace pl_slam

@@ -54,8 +54,13 @@ struct FrameResult {
   int lines_detected = 0;
   int point_inliers = 0;
   int line_inliers = 0;
-  bool map_tracked = false;   ///< the pose was refined against the local map
-  bool relocalized = false;   ///< tracking was recovered in the map by relocalisation
+  bool map_tracked = false;  ///< the pose was refined against the local map
+  bool relocalized = false;  ///< tracking was recovered in the map by relocalisation
+  /// Visual odometry lost the frame and tracking against the local map, from the motion
+  /// model's prediction, recovered it.
+  bool map_rescued = false;
+  /// Lost, and T_w_c is the motion model's prediction (covariance: the model's).
+  bool predicted = false;
   int loops = 0;              ///< loops closed so far
   int map_point_inliers = 0;  ///< local-map inliers (points)
   int map_line_inliers = 0;   ///< local-map inliers (lines)

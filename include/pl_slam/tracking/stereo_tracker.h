@@ -48,13 +48,18 @@ struct TrackerOptions {
   double keyframe_min_inlier_ratio = 0.5;
   double keyframe_max_correction = 0.05;     ///< larger change (m) is refused as a mismatch
   double keyframe_max_correction_deg = 2.0;  ///< larger change (deg) is refused
-  PointDetectorOptions points;               ///< "points.*"
-  PointMatchingOptions point_matching;       ///< "point_matching.*"
-  LineDetectorOptions lines;                 ///< "lines.*"
-  LineMatchingOptions line_matching;         ///< "line_matching.*"
-  MotionEstimatorOptions motion;             ///< "motion.*"
-  ConsensusOptions consensus;                ///< "consensus.*"
-  KeyframeSelectorOptions keyframes;         ///< "keyframes.*"
+  /// While lost, the pose follows the constant-velocity model for at most this many frames
+  /// (reported with pose_valid false and `predicted` true), so tracking that resumes, or a
+  /// rescue against the local map, starts where the camera is likely to be rather than where
+  /// it was last seen. 0: stay at the last good pose.
+  int max_predicted_frames = 10;
+  PointDetectorOptions points;          ///< "points.*"
+  PointMatchingOptions point_matching;  ///< "point_matching.*"
+  LineDetectorOptions lines;            ///< "lines.*"
+  LineMatchingOptions line_matching;    ///< "line_matching.*"
+  MotionEstimatorOptions motion;        ///< "motion.*"
+  ConsensusOptions consensus;           ///< "consensus.*"
+  KeyframeSelectorOptions keyframes;    ///< "keyframes.*"
 
   /// Empty when valid, else "key=value must be ..." naming the first bad key (with prefix).
   std::string Validate() const;
@@ -78,7 +83,10 @@ struct TrackerResult {
   int point_matches = 0, line_matches = 0;      ///< frame-to-frame
   int point_inliers = 0, line_inliers = 0;      ///< kept by motion estimation
   bool keyframe_refined = false;                ///< the pose comes from matching the last keyframe
-  std::string warning;                          ///< why tracking failed, when it did
+  /// Lost, and T_w_c is the constant-velocity prediction (covariance_prev_cur is then the
+  /// motion model's: the last increment's size as its standard deviation).
+  bool predicted = false;
+  std::string warning;                                   ///< why tracking failed, when it did
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
 };
 
@@ -103,6 +111,10 @@ class StereoTracker {
   /// After relocalisation: the last frame (the one just tracked) is at T_w_c in the map;
   /// tracking resumes from it (state TRACKING, no motion prior, a new keyframe chain).
   void Relocalized(const SE3& T_w_c);
+
+  /// After tracking against the local map rescued a frame the tracker lost: the last frame is
+  /// at T_w_c; tracking resumes from it with the motion prior kept (a new keyframe chain).
+  void Rescued(const SE3& T_w_c);
 
   /// Features of the last frame (for the debug image and the map).
   const StereoFeatures& last_features() const;
