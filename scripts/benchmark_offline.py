@@ -24,6 +24,7 @@ apart (held-out layouts are for checking, never for tuning):
 
     scripts/benchmark_offline.py --family lowtex [--seeds 1,2,3] [--family-variants textured,bare]
                                  [--layouts NAME,...] [--max-frames N] [--jobs J] [--out DIR]
+                                 [--generate-args '--exposure dim'] [--set K=V,...]
 
 Needs a built workspace (scripts/setup.sh). Standard library only; Debian's python3.
 """
@@ -213,6 +214,9 @@ def family_run(layout, variant, seed, mode, data, out, overrides):
         gap = 0 if t in posed else gap + 1
         longest = max(longest, gap)
     row["gap"] = longest
+    if row["tracked"] < 2:
+        row["failed"] = "fewer than 2 frames tracked"
+        return row
     try:
         run([os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(d, "trajectory.tum"),
              "--gt", os.path.join(d, "groundtruth.tum"), "--frame-times", os.path.join(d, "frames.txt"),
@@ -259,7 +263,10 @@ def run_family(args):
         for variant in variants:
             for seed in seeds:
                 name = "%s_%s_s%d" % (layout, variant, seed)
-                data = os.path.join(out, "data", name + ("_f%d" % args.max_frames if args.max_frames else ""))
+                suffix = ("_f%d" % args.max_frames if args.max_frames else "") + (
+                    "_" + "_".join(w.lstrip("-") for w in args.generate_args.split())
+                    if args.generate_args else "")
+                data = os.path.join(out, "data", name + suffix)
                 sequences.append((layout, variant, seed, data))
 
     def render(item):
@@ -274,6 +281,7 @@ def run_family(args):
             raise RuntimeError("unknown variant %s (textured, bare)" % variant)
         if args.max_frames:
             cmd += ["--frames", str(args.max_frames)]
+        cmd += args.generate_args.split()
         os.makedirs(os.path.dirname(data), exist_ok=True)
         run(cmd, data + ".generate.log")
 
@@ -299,9 +307,9 @@ def run_family(args):
         json.dump(rows, f, indent=1)
 
     lines = []
-    lines.append("family %s: layouts %s; variants %s; seeds %s; modes %s; options: %s" % (
+    lines.append("family %s: layouts %s; variants %s; seeds %s; modes %s; options: %s; rendering: %s" % (
         args.family, ", ".join("%s (%s)" % lr for lr in layouts), ",".join(variants), args.seeds,
-        ",".join(modes), overrides or "defaults"))
+        ",".join(modes), overrides or "defaults", args.generate_args or "scene defaults"))
     lines.append("")
     lines.append("| set | layout | variant | seed | mode | frames | tracked | lost | longest gap | path m | ATE m | ATE % path | drift % | rot drift deg/m |")
     lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
@@ -358,6 +366,8 @@ def main():
     ap.add_argument("--layouts", default="", help="family: only these layouts")
     ap.add_argument("--max-frames", type=int, default=0, help="family: cap every sequence (0 = whole walk)")
     ap.add_argument("--jobs", type=int, default=1, help="family: renders / runs at a time")
+    ap.add_argument("--generate-args", default="",
+                    help="family: extra pl_slam_generate flags, e.g. '--exposure dim --blur 1.0'")
     ap.add_argument("--threaded", action="store_true", help="family: mapping in its own thread")
     args = ap.parse_args()
     args.out_given = any(a == "--out" or a.startswith("--out=") for a in sys.argv[1:])
