@@ -67,7 +67,6 @@ class Builder {
 
   World* world() { return world_.get(); }
   std::shared_ptr<const World> Take() { return std::move(world_); }
-  bool bare() const { return bare_; }
   // A fresh, reproducible seed per surface (in creation order).
   uint64_t Tag() { return MixSeed(seed_, next_tag_++); }
 

@@ -24,7 +24,7 @@
 // gradient and the structural edges of real buildings, camera 1.5 m high, walking 1-1.4 m/s;
 // each has a textured default and a bare variant (SequenceOptions::bare). The world seed
 // jitters sizes, door positions and turn directions; the default length is the whole walk
-// (seed-dependent, 200-260 frames at 20 Hz). Their sequences default to 0.6 px blur and 8 %
+// (seed-dependent, 200-280 frames at 20 Hz). Their sequences default to 0.6 px blur and 8 %
 // vignetting (SequenceOptions::blur_sigma, vignetting).
 //   lowtex_corner    Z-shaped 2 m wide corridor (legs 5-6.5, 3.5-5, 4.5-6 m, middle leg left
 //                    or right), walked at 1.25 m/s slowing to 0.85 m/s in the two 90-degree
