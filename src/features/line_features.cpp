@@ -533,6 +533,14 @@ std::string LineDetectorOptions::Validate() const {
     os << "canny_low=" << canny_low << " must be in (0, 2000]";
   } else if (!(canny_high >= canny_low && canny_high <= 2000.0)) {
     os << "canny_high=" << canny_high << " must be in [canny_low, 2000]";
+  } else if (min_lines < 0 || min_lines > 10000) {
+    os << "min_lines=" << min_lines << " must be in [0, 10000]";
+  } else if (!(low_contrast_canny_low > 0.0 && low_contrast_canny_low <= 2000.0)) {
+    os << "low_contrast_canny_low=" << low_contrast_canny_low << " must be in (0, 2000]";
+  } else if (!(low_contrast_canny_high >= low_contrast_canny_low &&
+               low_contrast_canny_high <= 2000.0)) {
+    os << "low_contrast_canny_high=" << low_contrast_canny_high
+       << " must be in [low_contrast_canny_low, 2000]";
   } else if (!(max_fit_distance >= 0.2 && max_fit_distance <= 5.0)) {
     os << "max_fit_distance=" << max_fit_distance << " must be in [0.2, 5]";
   } else if (!(merge_max_gap >= 0.0 && merge_max_gap <= 100.0)) {
@@ -624,6 +632,17 @@ void LineDetector::Detect(const cv::Mat& image, LineFeatures* lines, cv::Mat* de
   const float piece_len = options_.merge_collinear ? 0.5f * min_len : min_len;
   if (options_.detector == LineDetectorKind::kEdgeChain) {
     DetectEdgeChainSegments(options_, piece_len, &ws);
+    const auto kept = std::count_if(
+        segs.begin(), segs.end(), [min_len](const RawSegment& r) { return r.Length() >= min_len; });
+    if (kept < options_.min_lines && options_.low_contrast_canny_high < options_.canny_high) {
+      // Low contrast: the same search at thresholds just above the image noise. Its segments
+      // include the strong ones, so they replace the first search's.
+      LineDetectorOptions low = options_;
+      low.canny_low = options_.low_contrast_canny_low;
+      low.canny_high = options_.low_contrast_canny_high;
+      segs.clear();
+      DetectEdgeChainSegments(low, piece_len, &ws);
+    }
   } else {
     DetectLsdSegments(image, dx, dy, options_, piece_len, &segs);
   }

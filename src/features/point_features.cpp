@@ -22,6 +22,8 @@ std::string PointDetectorOptions::Validate() const {
     os << "scale_factor=" << scale_factor << " must be in (1, 2]";
   else if (fast_threshold < 1 || fast_threshold > 100)
     os << "fast_threshold=" << fast_threshold << " must be in [1, 100]";
+  else if (min_fast_threshold < 1 || min_fast_threshold > fast_threshold)
+    os << "min_fast_threshold=" << min_fast_threshold << " must be in [1, fast_threshold]";
   else if (!(oversample >= 1.0 && oversample <= 20.0))
     os << "oversample=" << oversample << " must be in [1, 20]";
   return os.str();
@@ -107,6 +109,15 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
                       2, cv::ORB::HARRIS_SCORE, 31, options_.fast_threshold);
   std::vector<cv::KeyPoint> all;
   orb->detect(image, all);
+  // A textured image fills the pool at the normal threshold; a poor one (fewer corners in all
+  // than are to be kept: plain walls) is searched again at the low-contrast threshold, on
+  // every pyramid level, as ORB-SLAM lowers its threshold where a cell finds nothing.
+  if (options_.min_fast_threshold < options_.fast_threshold &&
+      static_cast<int>(all.size()) < options_.max_points) {
+    orb->setFastThreshold(options_.min_fast_threshold);
+    all.clear();
+    orb->detect(image, all);
+  }
   if (all.empty()) return;
   *keypoints = BucketKeypoints(all, image.size(), options_.grid_cols, options_.grid_rows,
                                options_.max_points);

@@ -15,6 +15,12 @@ OptionTable MakeOptionTable(SystemOptions* options) {
       "features for tracking: points, lines or points_lines");
   t.Add("tracker.parallel", &tr.parallel, "process the right image in a second thread");
   t.Add("tracker.min_inliers", &tr.min_inliers, "fewer point + line inliers: tracking lost");
+  t.Add("tracker.relaxed_min_inliers", &tr.relaxed_min_inliers,
+        "fewer than min_inliers but this many are kept when the motion model agrees (0 = off)");
+  t.Add("tracker.relaxed_max_deviation", &tr.relaxed_max_deviation,
+        "relaxed gate: largest deviation from the motion model and its sigma, m");
+  t.Add("tracker.relaxed_max_deviation_deg", &tr.relaxed_max_deviation_deg,
+        "relaxed gate: largest deviation from the motion model and its sigma, deg");
   t.Add("tracker.max_translation", &tr.max_translation,
         "largest accepted frame-to-frame translation, m");
   t.Add("tracker.max_rotation_deg", &tr.max_rotation_deg,
@@ -39,6 +45,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.points.levels", &p.levels, "ORB pyramid levels");
   t.Add("tracker.points.scale_factor", &p.scale_factor, "ORB pyramid scale step");
   t.Add("tracker.points.fast_threshold", &p.fast_threshold, "FAST corner threshold");
+  t.Add("tracker.points.min_fast_threshold", &p.min_fast_threshold,
+        "FAST threshold of a second search when an image has < max_points corners (= "
+        "fast_threshold: off)");
   t.Add("tracker.points.oversample", &p.oversample,
         "candidates per kept keypoint before bucketing");
 
@@ -76,6 +85,12 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "under the cap, segments this close to horizontal rank last, deg (0 = by length only)");
   t.Add("tracker.lines.canny_low", &l.canny_low, "edge chain: Canny low threshold");
   t.Add("tracker.lines.canny_high", &l.canny_high, "edge chain: Canny high threshold");
+  t.Add("tracker.lines.min_lines", &l.min_lines,
+        "edge chain: fewer segments: search again at the low-contrast thresholds (0 = never)");
+  t.Add("tracker.lines.low_contrast_canny_low", &l.low_contrast_canny_low,
+        "edge chain: Canny low threshold of the low-contrast search");
+  t.Add("tracker.lines.low_contrast_canny_high", &l.low_contrast_canny_high,
+        "edge chain: Canny high threshold of the low-contrast search");
   t.Add("tracker.lines.max_fit_distance", &l.max_fit_distance,
         "edge chain: distance ending a straight run, px");
   t.Add("tracker.lines.merge_collinear", &l.merge_collinear, "edge chain: join collinear pieces");

@@ -1,5 +1,7 @@
 #include "pl_slam/tracking/stereo_tracker.h"
 
+#include <Eigen/Eigenvalues>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -46,6 +48,12 @@ std::string TrackerOptions::Validate() const {
     os << "keyframe_max_correction=" << keyframe_max_correction << " must be in (0, 100]";
   else if (!(keyframe_max_correction_deg > 0.0 && keyframe_max_correction_deg <= 180.0))
     os << "keyframe_max_correction_deg=" << keyframe_max_correction_deg << " must be in (0, 180]";
+  else if (relaxed_min_inliers < 0 || relaxed_min_inliers > 1000)
+    os << "relaxed_min_inliers=" << relaxed_min_inliers << " must be in [0, 1000]";
+  else if (!(relaxed_max_deviation > 0.0 && relaxed_max_deviation <= 10.0))
+    os << "relaxed_max_deviation=" << relaxed_max_deviation << " must be in (0, 10]";
+  else if (!(relaxed_max_deviation_deg > 0.0 && relaxed_max_deviation_deg <= 90.0))
+    os << "relaxed_max_deviation_deg=" << relaxed_max_deviation_deg << " must be in (0, 90]";
   else if (max_predicted_frames < 0 || max_predicted_frames > 1000)
     os << "max_predicted_frames=" << max_predicted_frames << " must be in [0, 1000]";
   if (!os.str().empty()) return os.str();
@@ -208,6 +216,24 @@ struct StereoTracker::Impl {
     return out;
   }
 
+  /// The relaxed gate: an estimate with fewer than min_inliers but at least
+  /// relaxed_min_inliers is kept when it agrees with the constant-velocity prediction (a
+  /// corner with a dozen good features), and its own covariance is tight.
+  bool AgreesWithPrior(const MotionEstimate& est, const SE3& prior) const {
+    if (est.point_inliers + est.line_inliers < options.relaxed_min_inliers) return false;
+    const SE3 deviation = est.T_cur_prev * prior.inverse();
+    const double max_rad = options.relaxed_max_deviation_deg * M_PI / 180.0;
+    if (deviation.translation().norm() > options.relaxed_max_deviation ||
+        deviation.RotationAngle() > max_rad)
+      return false;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> t(
+        est.covariance_prev_cur.topLeftCorner<3, 3>());
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> r(
+        est.covariance_prev_cur.bottomRightCorner<3, 3>());
+    return std::sqrt(std::max(0.0, t.eigenvalues()(2))) <= options.relaxed_max_deviation &&
+           std::sqrt(std::max(0.0, r.eigenvalues()(2))) <= max_rad;
+  }
+
   template <typename Matches>
   static Matches Gated(const Matches& all, const std::vector<uint8_t>& keep) {
     Matches kept;
@@ -347,7 +373,8 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     result.line_inliers = est.line_inliers;
     if (!est.success) {
       result.warning = "motion estimation failed: " + est.failure;
-    } else if (est.point_inliers + est.line_inliers < s.options.min_inliers) {
+    } else if (est.point_inliers + est.line_inliers < s.options.min_inliers &&
+               !(s.velocity_valid && s.AgreesWithPrior(est, prior))) {
       std::ostringstream os;
       os << "only " << est.point_inliers << " point and " << est.line_inliers
          << " line inliers (min_inliers=" << s.options.min_inliers << ")";

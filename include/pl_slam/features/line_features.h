@@ -30,8 +30,14 @@ struct LineDetectorOptions {
   /// Under the cap, segments within this angle of the image rows (no stereo depth) rank after
   /// all steeper ones; 0 = longest first regardless of direction.
   double prefer_steep_deg = 15.0;
-  double canny_low = 40.0;          ///< edge chain: Canny low threshold on |dx|+|dy| (Sobel)
-  double canny_high = 80.0;         ///< edge chain: Canny high threshold, one pixel per chain
+  double canny_low = 40.0;   ///< edge chain: Canny low threshold on |dx|+|dy| (Sobel)
+  double canny_high = 80.0;  ///< edge chain: Canny high threshold, one pixel per chain
+  /// Edge chain: an image that gives fewer segments than this is searched again with the
+  /// low-contrast thresholds below (plain walls: door frames and skirting a few grey levels
+  /// off the paint). 0 = never.
+  int min_lines = 40;
+  double low_contrast_canny_low = 15.0;   ///< edge chain: Canny low threshold of that search
+  double low_contrast_canny_high = 30.0;  ///< edge chain: Canny high threshold of that search
   double max_fit_distance = 1.0;    ///< edge chain: pixel-to-line distance that ends a straight run
   bool merge_collinear = true;      ///< join collinear pieces split at junctions (both detectors)
   double merge_max_gap = 8.0;       ///< merge: largest gap between pieces along the line, pixels

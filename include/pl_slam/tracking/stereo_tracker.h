@@ -32,7 +32,13 @@ const char* FeatureModeName(FeatureMode mode);
 struct TrackerOptions {
   FeatureMode mode = FeatureMode::kPointsAndLines;  ///< features used for motion
   bool parallel = true;                             ///< process the right image in a second thread
-  int min_inliers = 15;          ///< fewer point + line inliers than this: tracking lost
+  int min_inliers = 15;  ///< fewer point + line inliers than this: tracking lost
+  /// ... unless there are at least this many and the estimate agrees with the
+  /// constant-velocity prediction within relaxed_max_deviation(_deg), its covariance's
+  /// standard deviations too (0, or not below min_inliers: no relaxed gate).
+  int relaxed_min_inliers = 8;
+  double relaxed_max_deviation = 0.05;     ///< relaxed gate: largest deviation, m
+  double relaxed_max_deviation_deg = 3.0;  ///< relaxed gate: largest deviation, deg
   double max_translation = 2.0;  ///< larger frame-to-frame motion (m) is rejected as a failure
   double max_rotation_deg = 60;  ///< larger frame-to-frame rotation (deg) is rejected
   /// Information of a line residual relative to a point's (octave 0). A line's distance to
