@@ -35,11 +35,26 @@ geometry_msgs::TransformStamped ToTransformMsg(const SE3& T, const ros::Time& st
 
 }  // namespace
 
+// Covariance over [position; rotation about the frame's axes] of a pose P expressed through
+// the rigid change of frame T_bc: T_b = T_bc * P * T_bc^-1. `offset` is the base origin's
+// position relative to the camera, rotated into P's frame: R_P * t_cb.
+Matrix6d ToBaseFrame(const Matrix6d& cov, const SE3& T_bc, const Eigen::Vector3d& offset) {
+  const Eigen::Matrix3d R = T_bc.rotation();
+  Matrix6d J = Matrix6d::Zero();
+  J.block<3, 3>(0, 0) = R;
+  J.block<3, 3>(0, 3) = -R * Hat(offset);
+  J.block<3, 3>(3, 3) = R;
+  return J * cov * J.transpose();
+}
+
 void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Header& header) {
   // The SLAM world is the first camera pose; express it so that the base starts at the
-  // origin of odom: T_odom_base = T_base_cam * T_w_c * T_cam_base.
+  // origin of map and odom: T_map_base = T_base_cam * T_w_c * T_cam_base, and likewise the
+  // odometry chain T_odom_base from T_odom_c. map -> odom takes the map's corrections
+  // (bundle adjustment, loop closure, relocalisation); odom -> base stays continuous (REP-105).
   const SE3& T_bc = *T_base_cam_;
-  const SE3 T_odom_base = T_bc * result.T_w_c * T_bc.inverse();
+  const SE3 T_map_base = T_bc * result.T_w_c * T_bc.inverse();
+  const SE3 T_odom_base = T_bc * result.T_odom_c * T_bc.inverse();
   const ros::Time stamp = header.stamp;
 
   if (result.pose_valid) {
@@ -48,17 +63,39 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
     odom.header.frame_id = options_.odom_frame;
     odom.child_frame_id = options_.base_frame;
     odom.pose.pose = ToPoseMsg(T_odom_base);
-    // Covariance of the increment expressed in the base frame (ROS order x y z rx ry rz).
-    const Matrix6d Ad = T_bc.Adjoint();
-    const Matrix6d cov = Ad * result.covariance * Ad.transpose();
+    // Pose covariance: the odometry chain's, grown over the tracked motion (ROS order x y z
+    // rx ry rz, odom frame).
+    const Eigen::Vector3d offset = result.T_odom_c.rotation() * T_bc.inverse().translation();
+    const Matrix6d pose_cov = ToBaseFrame(result.odom_covariance, T_bc, offset);
     for (int r = 0; r < 6; ++r)
-      for (int c = 0; c < 6; ++c) odom.pose.covariance[r * 6 + c] = cov(r, c);
+      for (int c = 0; c < 6; ++c) odom.pose.covariance[r * 6 + c] = pose_cov(r, c);
+    // Twist: this frame's tracked motion over the time since the last message, in the base
+    // frame (nav_msgs: twist in child_frame_id), with the increment's covariance scaled.
+    const double dt = last_odom_stamp_.isZero() ? 0.0 : (stamp - last_odom_stamp_).toSec();
+    if (dt > 0.0) {
+      const SE3 step_base = T_bc * result.T_prev_cur * T_bc.inverse();
+      const Vector6d xi = step_base.Log();  // [rho; phi]
+      odom.twist.twist.linear.x = xi(0) / dt;
+      odom.twist.twist.linear.y = xi(1) / dt;
+      odom.twist.twist.linear.z = xi(2) / dt;
+      odom.twist.twist.angular.x = xi(3) / dt;
+      odom.twist.twist.angular.y = xi(4) / dt;
+      odom.twist.twist.angular.z = xi(5) / dt;
+      const Matrix6d Ad = T_bc.Adjoint();
+      const Matrix6d twist_cov = Ad * result.covariance * Ad.transpose() / (dt * dt);
+      for (int r = 0; r < 6; ++r)
+        for (int c = 0; c < 6; ++c) odom.twist.covariance[r * 6 + c] = twist_cov(r, c);
+    } else {
+      // No time step yet: the twist is unknown, said so with a huge variance.
+      for (int k = 0; k < 6; ++k) odom.twist.covariance[k * 6 + k] = 1e6;
+    }
+    last_odom_stamp_ = stamp;
     odom_pub_.publish(odom);
 
     geometry_msgs::PoseStamped pose;
     pose.header.stamp = stamp;
     pose.header.frame_id = options_.map_frame;
-    pose.pose = odom.pose.pose;
+    pose.pose = ToPoseMsg(T_map_base);
     pose_pub_.publish(pose);
     path_.header = pose.header;
     path_.poses.push_back(pose);
@@ -67,7 +104,8 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
 
     if (options_.publish_tf) {
       std::vector<geometry_msgs::TransformStamped> tfs;
-      tfs.push_back(ToTransformMsg(SE3(), stamp, options_.map_frame, options_.odom_frame));
+      tfs.push_back(ToTransformMsg(T_map_base * T_odom_base.inverse(), stamp, options_.map_frame,
+                                   options_.odom_frame));
       tfs.push_back(ToTransformMsg(T_odom_base, stamp, options_.odom_frame, options_.base_frame));
       tf_broadcaster_->sendTransform(tfs);
     }

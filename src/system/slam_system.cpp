@@ -3,12 +3,14 @@
 #include "pl_slam/system/slam_system.h"
 
 #include <atomic>
+#include <cmath>
 #include <chrono>
 #include <mutex>
 
 #include "pl_slam/map/map_io.h"
 #include "pl_slam/mapping/local_map_matching.h"
 #include "pl_slam/system/frame_records.h"
+#include "pl_slam/system/odometry.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 
@@ -66,6 +68,8 @@ struct SlamSystem::Impl {
   KeyframeId reference = kNoId;  // last keyframe handed to mapping
   SE3 T_w_reference;             // its pose when handed over
   LocalMap local_map;            // cached copy, refreshed when the map changes
+  OdometryChain odometry;        // REP-105 odom: tracked motion only, covariance over time
+  int loops_seen = 0;            // loop corrections already reflected in the odometry covariance
   std::atomic<bool> localization_only{false};
   bool relocalize_first = false;      // a loaded map: the first pose must come from relocalisation
   mutable std::mutex features_mutex;  // guards last_features (read by the ROS layer)
@@ -186,6 +190,8 @@ void SlamSystem::Reset() {
   s.tracker->Reset();
   s.state = TrackingState::kNotInitialized;
   s.T_w_c = SE3();
+  s.odometry.Reset();
+  s.loops_seen = 0;
   std::lock_guard<std::mutex> lock(s.trajectory_mutex);
   s.records.clear();
 }
@@ -208,6 +214,8 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   FrameResult result;
   result.T_w_c = s.T_w_c;
 
+  result.T_odom_c = s.odometry.T_odom_c();
+  result.odom_covariance = s.odometry.covariance();
   const cv::Size expected(s.camera.width, s.camera.height);
   std::string bad;
   if (frame.left.empty() || frame.right.empty())
@@ -238,6 +246,8 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
       s.tracker->CorrectPose(s.T_w_c);
     }
   }
+  // What tracking does to the pose from here on is odometry; the corrections above are not.
+  const SE3 T_w_before = s.T_w_c;
 
   // Keyframes whenever local mapping can take them (tracker.keyframes.idle_min_frames); the
   // mapper's lock is only taken when that rule is on.
@@ -328,6 +338,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   result.warning = r.warning;
   result.stage_ms = r.stage_ms;
   if (s.mapper) TrackAndMap(frame, r, &result);
+  AdvanceOdometry(T_w_before, r, &result);
   if (result.pose_valid) {
     std::lock_guard<std::mutex> lock(s.trajectory_mutex);
     FrameRecord rec;
@@ -339,6 +350,31 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   }
   result.total_ms = std::chrono::duration<double, std::milli>(Clock::now() - t_start).count();
   return result;
+}
+
+void SlamSystem::AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r,
+                                 FrameResult* result) {
+  Impl& s = *impl_;
+  if (!result->relocalized) {
+    // The tracked (or, while lost, predicted) motion of this frame, local-map refinement
+    // included. A relocalisation jump is no motion: odom holds and map -> odom takes it.
+    result->T_prev_cur = T_w_before.inverse() * s.T_w_c;
+    s.odometry.Advance(result->T_prev_cur, result->pose_valid || result->predicted
+                                               ? result->covariance
+                                               : Matrix6d::Zero());
+  }
+  if (result->relocalized || result->loops > s.loops_seen) {
+    // The pose is tied to the map again: its uncertainty is that of one tracked increment
+    // (a relocalisation's: 1 cm and 0.5 deg).
+    Matrix6d tied = Matrix6d::Zero();
+    const double deg = M_PI / 180.0;
+    tied.diagonal() << 1e-4, 1e-4, 1e-4, 0.25 * deg * deg, 0.25 * deg * deg, 0.25 * deg * deg;
+    s.odometry.SetCovariance(result->pose_valid && !result->relocalized ? r.covariance_prev_cur
+                                                                        : tied);
+    s.loops_seen = result->loops;
+  }
+  result->T_odom_c = s.odometry.T_odom_c();
+  result->odom_covariance = s.odometry.covariance();
 }
 
 void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,

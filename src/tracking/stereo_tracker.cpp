@@ -441,6 +441,9 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       s.selector.Reset();
       // Registers this frame as the chain's start (the increment of a first frame is ignored).
       result.keyframe_reason = s.selector.AddFrame(SE3(), Matrix6d::Identity(), usable);
+      // The first pose defines the world: no motion, no uncertainty.
+      result.T_prev_cur = SE3();
+      result.covariance_prev_cur.setZero();
       result.is_keyframe = true;
     } else {
       std::ostringstream os;

@@ -1,4 +1,6 @@
 // rostest node: plays nothing itself; watches the nodelet while rosbag play feeds it.
+#include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <limits>
 
@@ -35,12 +37,22 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   ASSERT_GT(frames, 20u);
   ASSERT_EQ(gt.size(), frames);
 
-  size_t odom_count = 0, status_count = 0, tracking_count = 0;
+  size_t odom_count = 0, status_count = 0, tracking_count = 0, twists_with_covariance = 0;
+  double first_position_variance = -1.0, last_position_variance = -1.0, max_speed = 0.0;
   pl_slam::TrackingStatus last_status;
   ros::Subscriber odom_sub = nh.subscribe<nav_msgs::Odometry>(
       "/pl_slam/odom", 1000, [&](const nav_msgs::Odometry::ConstPtr& m) {
         ++odom_count;
         for (double c : m->pose.covariance) EXPECT_TRUE(std::isfinite(c));
+        for (double c : m->twist.covariance) EXPECT_TRUE(std::isfinite(c));
+        const double position_variance =
+            m->pose.covariance[0] + m->pose.covariance[7] + m->pose.covariance[14];
+        if (odom_count == 1) first_position_variance = position_variance;
+        last_position_variance = position_variance;
+        const auto& v = m->twist.twist.linear;
+        max_speed = std::max(max_speed, std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z));
+        if (odom_count > 1 && m->twist.covariance[0] > 0.0 && m->twist.covariance[0] < 1.0)
+          ++twists_with_covariance;
       });
   ros::Subscriber status_sub = nh.subscribe<pl_slam::TrackingStatus>(
       "/pl_slam/status", 1000, [&](const pl_slam::TrackingStatus::ConstPtr& m) {
@@ -116,6 +128,13 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   EXPECT_GE(static_cast<double>(odom_count), 0.95 * frames)
       << "odometry for under 95% of the frames";
   EXPECT_GE(static_cast<double>(tracking_count), 0.95 * frames);
+  // ~odom: the first pose defines the frame (no uncertainty), the covariance grows with the
+  // walk, and the twist carries the tracked motion (the demo walks at 0.4-0.65 m/s).
+  EXPECT_LT(first_position_variance, 1e-6);
+  EXPECT_GT(last_position_variance, 100.0 * std::max(first_position_variance, 1e-12));
+  EXPECT_GT(max_speed, 0.2);
+  EXPECT_LT(max_speed, 3.0);
+  EXPECT_GE(static_cast<double>(twists_with_covariance), 0.9 * odom_count);
   EXPECT_EQ(last_status.state_name, "TRACKING");
   EXPECT_GT(last_status.points_detected, 100u);
   EXPECT_TRUE(tf_ok) << "no TF map -> base_link";

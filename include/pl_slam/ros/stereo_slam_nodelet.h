@@ -196,6 +196,7 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   bool path_pose_pending_ = false;               // a new pose since the last ~path
   ros::WallTime last_map_publish_, last_debug_image_;
   std::optional<geometry_msgs::PoseStamped> current_pose_;
+  ros::Time last_odom_stamp_;  // stamp of the last ~odom: the twist's time step
 };
 
 }  // namespace ros_layer

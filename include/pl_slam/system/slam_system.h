@@ -45,7 +45,18 @@ struct FrameResult {
   TrackingState state = TrackingState::kNotInitialized;
   SE3 T_w_c;                                   ///< current left-camera pose (last good when lost)
   Matrix6d covariance = Matrix6d::Identity();  ///< of the frame-to-frame increment [rho; phi]
-  bool pose_valid = false;                     ///< T_w_c is an estimate for this frame
+  /// This frame's motion as tracking measured it (frame to frame and against the local map,
+  /// or the motion model's while lost; identity on a relocalisation): T_odom_c's step.
+  SE3 T_prev_cur;
+  /// REP-105 odometry: the camera pose chained from the tracked motion only, continuous
+  /// across bundle adjustment, loop corrections and relocalisation (map -> odom =
+  /// T_w_c * T_odom_c^-1 takes those). The odom frame is the SLAM world at the start.
+  SE3 T_odom_c;
+  /// Covariance of T_odom_c over [position; rotation about the odom axes], odom frame:
+  /// grows with the tracked motion, reset to the last increment's after a loop correction
+  /// or a relocalisation (see system/odometry.h).
+  Matrix6d odom_covariance = Matrix6d::Zero();
+  bool pose_valid = false;  ///< T_w_c is an estimate for this frame
   bool is_keyframe = false;
   /// Tracking proposed a keyframe but the local map already covered the view
   /// (mapping.skip_covered_keyframes): no keyframe was made.
@@ -124,6 +135,9 @@ class SlamSystem {
  private:
   /// Local-map tracking and keyframe hand-over for a frame the tracker processed.
   void TrackAndMap(const StereoFrame& frame, const TrackerResult& r, FrameResult* result);
+  // Chains this frame's tracked motion (from T_w_before, the pose after the map's corrections)
+  // into the odometry and fills result's odometry fields.
+  void AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r, FrameResult* result);
 
   struct Impl;
   std::unique_ptr<Impl> impl_;

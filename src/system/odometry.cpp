@@ -1,0 +1,33 @@
+#include "pl_slam/system/odometry.h"
+
+namespace pl_slam {
+void OdometryChain::Reset() {
+  T_odom_c_ = SE3();
+  covariance_ = 1e-12 * Matrix6d::Identity();
+}
+
+void OdometryChain::Advance(const SE3& T_prev_cur, const Matrix6d& increment_covariance) {
+  if (!T_prev_cur.IsFinite()) return;
+  const Eigen::Matrix3d R = T_odom_c_.rotation();
+  const Eigen::Vector3d t_world = R * T_prev_cur.translation();
+  // p' = p + R t, R' = R R_inc. A rotation error of the previous pose swings the step:
+  // dp' = dp - [R t]x dtheta; the increment's left perturbation [rho; phi] (previous camera
+  // frame) moves the position by R (rho - [t]x phi) and turns the pose by R phi.
+  Matrix6d F = Matrix6d::Identity();
+  F.block<3, 3>(0, 3) = -Hat(t_world);
+  Matrix6d G = Matrix6d::Zero();
+  G.block<3, 3>(0, 0) = R;
+  G.block<3, 3>(0, 3) = -R * Hat(T_prev_cur.translation());
+  G.block<3, 3>(3, 3) = R;
+  Matrix6d next = F * covariance_ * F.transpose();
+  if (increment_covariance.allFinite()) next += G * increment_covariance * G.transpose();
+  covariance_ = 0.5 * (next + next.transpose());
+  T_odom_c_ = T_odom_c_ * T_prev_cur;
+}
+
+void OdometryChain::SetCovariance(const Matrix6d& covariance) {
+  if (!covariance.allFinite()) return;
+  covariance_ = 0.5 * (covariance + covariance.transpose());
+}
+
+}  // namespace pl_slam

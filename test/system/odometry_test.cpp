@@ -1,0 +1,131 @@
+// The odometry chain: its propagated covariance matches the spread of sampled noisy walks,
+// grows along a walk, and the odom poses of a whole run with loop closure stay continuous
+// while the map's poses jump.
+#include "pl_slam/system/odometry.h"
+
+#include <random>
+
+#include <gtest/gtest.h>
+
+#include "pl_slam/sim/synthetic_sequence.h"
+#include "pl_slam/system/slam_system.h"
+
+namespace pl_slam {
+namespace {
+
+// Position and rotation error of `est` against `truth` as OdometryChain defines them.
+Vector6d PoseError(const SE3& truth, const SE3& est) {
+  Vector6d e;
+  e.head<3>() = truth.translation() - est.translation();
+  e.tail<3>() = (truth * SE3(est.so3(), Eigen::Vector3d::Zero()).inverse())
+                    .Log()
+                    .tail<3>();  // R_true R_est^T
+  // Log of a pure rotation: the rotation part is its axis-angle.
+  return e;
+}
+
+TEST(OdometryChainTest, CovarianceMatchesTheSpreadOfNoisyWalks) {
+  // A curving walk of 40 steps; each measured step has left-perturbation noise Sigma_inc.
+  Vector6d step_xi;
+  step_xi << 0.05, 0.01, 0.3, 0.0, 0.04, 0.01;
+  const SE3 step = SE3::Exp(step_xi);
+  Vector6d sigma;
+  sigma << 0.004, 0.004, 0.008, 0.003, 0.003, 0.002;
+  const Matrix6d inc_cov = sigma.cwiseAbs2().asDiagonal();
+  OdometryChain chain;
+  double previous_trace = 0.0;
+  for (int k = 0; k < 40; ++k) {
+    chain.Advance(step, inc_cov);
+    const double trace = chain.covariance().topLeftCorner<3, 3>().trace();
+    EXPECT_GT(trace, previous_trace);  // grows with every step
+    previous_trace = trace;
+  }
+  // Monte Carlo: truth = the noise-free chain; samples perturb every step.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const int samples = 4000;
+  Matrix6d empirical = Matrix6d::Zero();
+  for (int s = 0; s < samples; ++s) {
+    SE3 T;
+    for (int k = 0; k < 40; ++k) {
+      Vector6d d;
+      for (int i = 0; i < 6; ++i) d(i) = sigma(i) * n(rng);
+      T = T * (SE3::Exp(d) * step);
+    }
+    const Vector6d e = PoseError(T, chain.T_odom_c());
+    empirical += e * e.transpose();
+  }
+  empirical /= samples;
+  for (int i = 0; i < 6; ++i) {
+    EXPECT_NEAR(std::sqrt(empirical(i, i)), std::sqrt(chain.covariance()(i, i)),
+                0.12 * std::sqrt(chain.covariance()(i, i)))
+        << "component " << i;
+  }
+}
+
+TEST(OdometryChainTest, ResetAndSetCovariance) {
+  OdometryChain chain;
+  chain.Advance(SE3::Exp(Vector6d::Constant(0.1)), Matrix6d::Identity() * 1e-4);
+  EXPECT_GT(chain.covariance()(0, 0), 1e-5);
+  Matrix6d bad = Matrix6d::Identity();
+  bad(0, 0) = std::nan("");
+  chain.SetCovariance(bad);  // ignored
+  EXPECT_GT(chain.covariance()(0, 0), 1e-5);
+  chain.SetCovariance(Matrix6d::Identity() * 1e-8);
+  EXPECT_NEAR(chain.covariance()(0, 0), 1e-8, 1e-12);
+  chain.Reset();
+  EXPECT_LT(chain.T_odom_c().translation().norm(), 1e-15);
+  EXPECT_LT(chain.covariance()(0, 0), 1e-9);
+}
+
+// The room walked once round and a little more: loop closure corrects the map. The map pose
+// jumps then; the odom pose never does (REP-105), and its covariance shrinks at the loop.
+TEST(OdometryChainTest, OdomStaysContinuousThroughALoopClosure) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kRoom;
+  const sim::SyntheticSequence seq(so);
+  SystemOptions opt;
+  opt.mapping.threaded = false;
+  opt.loop.vocabulary = std::string(PL_SLAM_SOURCE_DIR) + "/vocabulary";
+  SlamSystem sys(seq.camera(), opt);
+  std::vector<double> odom_steps, map_steps;
+  SE3 last_odom, last_map;
+  int loops = 0;
+  double cov_before_loop = 0.0, cov_after_loop = 0.0;
+  for (int i = 0; i < static_cast<int>(seq.size()); ++i) {
+    const FrameResult r = sys.Process(seq.Render(i));
+    ASSERT_TRUE(r.pose_valid) << "frame " << i;
+    if (i > 0) {
+      odom_steps.push_back((r.T_odom_c.translation() - last_odom.translation()).norm());
+      map_steps.push_back((r.T_w_c.translation() - last_map.translation()).norm());
+    }
+    const double cov = r.odom_covariance.topLeftCorner<3, 3>().trace();
+    if (r.loops > loops) {
+      cov_after_loop = cov;
+      loops = r.loops;
+    } else if (loops == 0) {
+      cov_before_loop = cov;
+    }
+    last_odom = r.T_odom_c;
+    last_map = r.T_w_c;
+  }
+  ASSERT_GE(loops, 1);
+  std::vector<double> sorted = odom_steps;
+  std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  const double odom_max = *std::max_element(odom_steps.begin(), odom_steps.end());
+  const double map_max = *std::max_element(map_steps.begin(), map_steps.end());
+  std::cout << "median step " << median * 1000 << " mm, largest odom step " << odom_max * 1000
+            << " mm, largest map step " << map_max * 1000 << " mm; position variance "
+            << cov_before_loop << " m^2 before the loop, " << cov_after_loop << " after\n";
+  // The map's corrections (bundle adjustment, the loop) went into map -> odom.
+  const double map_odom = (last_map * last_odom.inverse()).translation().norm();
+  std::cout << "map -> odom at the end: " << map_odom * 1000 << " mm\n";
+  EXPECT_GT(map_odom, 1e-4);
+  EXPECT_LT(odom_max, 5.0 * median);
+  EXPECT_LT(cov_after_loop, cov_before_loop);
+  EXPECT_GT(cov_before_loop, 0.0);
+}
+
+}  // namespace
+}  // namespace pl_slam
