@@ -1,5 +1,8 @@
 #include "pl_slam/ros/map_visualization.h"
 
+#include <algorithm>
+#include <cmath>
+#include <cstring>
 #include <unordered_map>
 
 #include <opencv2/imgproc.hpp>
@@ -129,6 +132,72 @@ nav_msgs::Path MakeKeyframePath(const MapSnapshot& map, const SE3& T_frame_w, co
   }
   if (!path.poses.empty()) path.header.stamp = path.poses.back().header.stamp;
   return path;
+}
+
+sensor_msgs::PointCloud2 MakeMapCloud(const MapSnapshot& map, const SE3& T_frame_w,
+                                      const std::string& frame, const ros::Time& stamp,
+                                      double segment_step) {
+  struct Sample {
+    Eigen::Vector3d p;
+    uint8_t source;
+  };
+  std::vector<Sample> samples;
+  samples.reserve(map.points.size() + 4 * map.lines.size());
+  for (const Eigen::Vector3d& p_w : map.points) samples.push_back({T_frame_w * p_w, 0});
+  if (segment_step > 0.0) {
+    for (const auto& [P_w, Q_w] : map.lines) {
+      const Eigen::Vector3d P = T_frame_w * P_w, Q = T_frame_w * Q_w;
+      const int n = std::max(1, static_cast<int>(std::ceil((Q - P).norm() / segment_step)));
+      for (int k = 0; k <= n; ++k)
+        samples.push_back({P + (Q - P) * (static_cast<double>(k) / n), 1});
+    }
+  }
+  sensor_msgs::PointCloud2 cloud;
+  cloud.header.frame_id = frame;
+  cloud.header.stamp = stamp;
+  cloud.height = 1;
+  cloud.width = static_cast<uint32_t>(samples.size());
+  const char* names[] = {"x", "y", "z"};
+  for (int k = 0; k < 3; ++k) {
+    sensor_msgs::PointField f;
+    f.name = names[k];
+    f.offset = static_cast<uint32_t>(4 * k);
+    f.datatype = sensor_msgs::PointField::FLOAT32;
+    f.count = 1;
+    cloud.fields.push_back(f);
+  }
+  sensor_msgs::PointField source;
+  source.name = "source";
+  source.offset = 12;
+  source.datatype = sensor_msgs::PointField::UINT8;
+  source.count = 1;
+  cloud.fields.push_back(source);
+  cloud.point_step = 16;
+  cloud.row_step = cloud.point_step * cloud.width;
+  cloud.is_bigendian = false;
+  cloud.is_dense = true;
+  cloud.data.assign(cloud.row_step, 0);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    uint8_t* d = cloud.data.data() + i * cloud.point_step;
+    const float xyz[3] = {static_cast<float>(samples[i].p.x()),
+                          static_cast<float>(samples[i].p.y()),
+                          static_cast<float>(samples[i].p.z())};
+    std::memcpy(d, xyz, sizeof(xyz));
+    d[12] = samples[i].source;
+  }
+  return cloud;
+}
+
+geometry_msgs::PoseArray MakeKeyframePoses(const MapSnapshot& map, const SE3& T_frame_w,
+                                           const SE3& T_base_cam, const std::string& frame,
+                                           const ros::Time& stamp) {
+  geometry_msgs::PoseArray poses;
+  poses.header.frame_id = frame;
+  poses.header.stamp = stamp;
+  const nav_msgs::Path path = MakeKeyframePath(map, T_frame_w, T_base_cam, frame);
+  poses.poses.reserve(path.poses.size());
+  for (const auto& p : path.poses) poses.poses.push_back(p.pose);
+  return poses;
 }
 
 cv::Mat DrawDebugImage(const cv::Mat& left, const StereoFeatures& features,

@@ -1,5 +1,7 @@
 #include "pl_slam/ros/map_visualization.h"
 
+#include <cstring>
+
 #include <gtest/gtest.h>
 
 namespace pl_slam {
@@ -89,6 +91,35 @@ TEST(MapVisualization, KeyframePathIsTheBasePose) {
   EXPECT_NEAR(path.poses[1].pose.position.x, 1.0, 1e-9);
   EXPECT_NEAR(path.poses[1].pose.position.z, 0.0, 1e-9);
   EXPECT_DOUBLE_EQ(path.poses[1].header.stamp.toSec(), 11.0);
+}
+
+TEST(MapVisualization, CloudHoldsThePointsAndSegmentSamplesInTheMapFrame) {
+  const MapSnapshot map = TwoKeyframeMap();
+  const SE3 mount = Mount();
+  auto read = [](const sensor_msgs::PointCloud2& c, size_t i, float xyz[3]) {
+    std::memcpy(xyz, c.data.data() + i * c.point_step, 12);
+    return c.data[i * c.point_step + 12];
+  };
+  const sensor_msgs::PointCloud2 points_only = MakeMapCloud(map, mount, "map", ros::Time(5), 0.0);
+  EXPECT_EQ(points_only.header.frame_id, "map");
+  ASSERT_EQ(points_only.width, 1u);  // the map point
+  EXPECT_EQ(points_only.data.size(), points_only.point_step * points_only.width);
+  float xyz[3];
+  EXPECT_EQ(read(points_only, 0, xyz), 0);
+  // 2 m in front of the camera, which is 1.4 m above the base: x 2, z 1.4 in map.
+  EXPECT_NEAR(xyz[0], 2.0, 1e-6);
+  EXPECT_NEAR(xyz[1], 0.0, 1e-6);
+  EXPECT_NEAR(xyz[2], 1.4, 1e-6);
+  // The 1 m segment (optical x, so map -y) sampled every 0.25 m: 5 samples.
+  const sensor_msgs::PointCloud2 with_lines = MakeMapCloud(map, mount, "map", ros::Time(5), 0.25);
+  ASSERT_EQ(with_lines.width, 6u);
+  EXPECT_EQ(read(with_lines, 5, xyz), 1);
+  EXPECT_NEAR(xyz[1], -1.0, 1e-6);
+  EXPECT_EQ(read(with_lines, 1, xyz), 1);
+  EXPECT_NEAR(xyz[1], 0.0, 1e-6);
+  const geometry_msgs::PoseArray poses = MakeKeyframePoses(map, mount, mount, "map", ros::Time(5));
+  ASSERT_EQ(poses.poses.size(), 2u);
+  EXPECT_NEAR(poses.poses[1].position.x, 1.0, 1e-9);
 }
 
 TEST(MapVisualization, DebugImageColoursByDepth) {

@@ -5,9 +5,11 @@
 
 #include <string>
 
+#include <geometry_msgs/PoseArray.h>
 #include <nav_msgs/Path.h>
 #include <opencv2/core.hpp>
 #include <ros/time.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "pl_slam/features/stereo_features.h"
@@ -35,6 +37,19 @@ visualization_msgs::MarkerArray MakeMapMarkers(const MapSnapshot& map, const SE3
 /// with T_cam_base = T_base_cam^-1, stamped with the keyframe stamps, in keyframe order.
 nav_msgs::Path MakeKeyframePath(const MapSnapshot& map, const SE3& T_frame_w, const SE3& T_base_cam,
                                 const std::string& frame);
+
+/// The map as a cloud for downstream nodes (planners, costmaps): fields x, y, z (float32) and
+/// `source` (uint8: 0 a map point, 1 a sample of a 3D segment) in `frame`, the map points
+/// first. With `segment_step` > 0 every segment is also sampled every segment_step metres
+/// (both endpoints included); 0 = points only.
+sensor_msgs::PointCloud2 MakeMapCloud(const MapSnapshot& map, const SE3& T_frame_w,
+                                      const std::string& frame, const ros::Time& stamp,
+                                      double segment_step);
+
+/// The keyframes' base poses in `frame` (as MakeKeyframePath), in keyframe order.
+geometry_msgs::PoseArray MakeKeyframePoses(const MapSnapshot& map, const SE3& T_frame_w,
+                                           const SE3& T_base_cam, const std::string& frame,
+                                           const ros::Time& stamp);
 
 /// The debug image: `left` (mono8, rectified, the pixels the features are in) as bgr8 with
 /// points as small circles and segments as lines, green with depth (stereo match) and yellow
