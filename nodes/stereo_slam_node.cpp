@@ -1,5 +1,11 @@
 // Standalone node hosting the same StereoSlamNodelet class, for users who do not run a
 // nodelet manager. Remappings and private parameters apply exactly as for the nodelet.
+//
+// A refused configuration or map file makes the nodelet's onInit throw, so the load fails and
+// the node exits with status 1 right away (the nodelet logged the one-line FATAL reason):
+// roslaunch reports the death, and required="true" / respawn can act on it.
+#include <exception>
+
 #include <nodelet/loader.h>
 #include <ros/ros.h>
 
@@ -8,8 +14,18 @@ int main(int argc, char** argv) {
   nodelet::Loader loader;
   const nodelet::M_string remappings(ros::names::getRemappings());
   const nodelet::V_string my_argv(argv + 1, argv + argc);
-  if (!loader.load(ros::this_node::getName(), "pl_slam/StereoSlamNodelet", remappings, my_argv)) {
-    ROS_FATAL("pl_slam: could not load the pl_slam/StereoSlamNodelet plugin");
+  bool loaded = false;
+  try {
+    loaded =
+        loader.load(ros::this_node::getName(), "pl_slam/StereoSlamNodelet", remappings, my_argv);
+  } catch (const std::exception&) {
+    // A loader that lets onInit's exception through: the same refusal.
+  }
+  if (!loaded) {
+    // The nodelet logged why (refused parameters or map file); a missing plugin is reported
+    // by the loader itself. Nothing else to say: one line, then exit non-zero.
+    loader.clear();
+    ros::shutdown();
     return 1;
   }
   ros::spin();

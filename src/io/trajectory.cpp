@@ -1,11 +1,13 @@
 #include "pl_slam/io/trajectory.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <cerrno>
+#include <cstdint>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -66,6 +68,17 @@ std::string FormatFixed9(double t) {
 }
 
 int64_t SecondsToNs(double t) { return static_cast<int64_t>(std::llround(t * 1e9)); }
+
+// The pose's stamp in nanoseconds: exact when known, else rounded from seconds.
+int64_t StampNs(const StampedPose& p) { return p.t_ns >= 0 ? p.t_ns : SecondsToNs(p.t); }
+
+// "S.NNNNNNNNN" from non-negative integer nanoseconds, digit for digit.
+std::string FormatNs(int64_t ns) {
+  char buf[64];
+  std::snprintf(buf, sizeof(buf), "%lld.%09lld", static_cast<long long>(ns / 1000000000),
+                static_cast<long long>(ns % 1000000000));
+  return buf;
+}
 
 }  // namespace
 
@@ -219,7 +232,7 @@ std::string FormatTrajectory(const Trajectory& traj, TrajectoryFormat format) {
       for (const auto& p : traj) {
         const Eigen::Quaterniond& q = p.T_w_c.so3();
         const Eigen::Vector3d& t = p.T_w_c.translation();
-        out += FormatFixed9(p.t);
+        out += p.t_ns >= 0 ? FormatNs(p.t_ns) : FormatFixed9(p.t);
         for (double v : {t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w()}) {
           out += ' ';
           num(v);
@@ -247,7 +260,7 @@ std::string FormatTrajectory(const Trajectory& traj, TrajectoryFormat format) {
       for (const auto& p : traj) {
         const Eigen::Quaterniond& q = p.T_w_c.so3();
         const Eigen::Vector3d& t = p.T_w_c.translation();
-        out += std::to_string(SecondsToNs(p.t));
+        out += std::to_string(StampNs(p));
         for (double v : {t.x(), t.y(), t.z(), q.w(), q.x(), q.y(), q.z()}) {
           out += ',';
           num(v);
@@ -263,11 +276,39 @@ void WriteTrajectory(const std::string& path, const Trajectory& traj, Trajectory
   WriteFileAtomic(path, FormatTrajectory(traj, format));
 }
 
+int RemoveStaleTemporaryFiles(const std::string& path) {
+  const fs::path target(path);
+  fs::path dir = target.parent_path();
+  if (dir.empty()) dir = ".";
+  // WriteFileAtomic's name: ".<file name>.tmp.<pid>.<counter>". A file whose writer process
+  // is gone (killed mid-write) is stale; a live writer's (this process, another saving the
+  // same file) is left alone.
+  const std::string prefix = "." + target.filename().string() + ".tmp.";
+  int removed = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.compare(0, prefix.size(), prefix) != 0) continue;
+    const std::string rest = name.substr(prefix.size());
+    const std::size_t dot = rest.find('.');
+    int64_t pid = 0;
+    if (dot == std::string::npos || !text::ParseInt64(rest.substr(0, dot), &pid) || pid <= 0 ||
+        pid > INT32_MAX)
+      continue;
+    const auto writer = static_cast<pid_t>(pid);
+    if (writer == ::getpid() || ::kill(writer, 0) == 0 || errno != ESRCH) continue;
+    std::error_code remove_ec;
+    if (fs::remove(it->path(), remove_ec)) ++removed;
+  }
+  return removed;
+}
+
 void WriteFileAtomic(const std::string& path, const std::string& content) {
   static std::atomic<unsigned> counter{0};
   const fs::path target(path);
   fs::path dir = target.parent_path();
   if (dir.empty()) dir = ".";
+  RemoveStaleTemporaryFiles(path);
   const std::string tmp =
       (dir / ("." + target.filename().string() + ".tmp." + std::to_string(::getpid()) + "." +
               std::to_string(counter.fetch_add(1))))
@@ -320,8 +361,7 @@ Trajectory TransformTrajectory(const Trajectory& traj, const SE3& T_right) {
   Trajectory out;
   out.reserve(traj.size());
   for (const auto& p : traj) {
-    StampedPose q;
-    q.t = p.t;
+    StampedPose q = p;
     q.T_w_c = p.T_w_c * T_right;
     out.push_back(q);
   }

@@ -1,8 +1,12 @@
 #include "pl_slam/ros/stereo_slam_nodelet.h"
 
+#include <unistd.h>
+
+#include <cstdint>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
+#include <stdexcept>
 
 #include <boost/bind/bind.hpp>
 #include <geometry_msgs/PoseStamped.h>
@@ -13,8 +17,10 @@
 #include <visualization_msgs/MarkerArray.h>
 
 #include "pl_slam/TrackingStatus.h"
+#include "pl_slam/io/trajectory.h"
 #include "pl_slam/map/map_io.h"
 #include "pl_slam/ros/conversions.h"
+#include "pl_slam/ros/stamp_policy.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 
@@ -47,6 +53,15 @@ std::string NodeletOptions::Validate() const {
     os << "map_file='" << map_file << "' needs mapping.enabled=true (there is no map to load into)";
   else if (localization_only && !system.mapping.enabled)
     os << "localization_only=true needs mapping.enabled=true (there is no map to localise in)";
+  else if (localization_only && map_file.empty())
+    os << "localization_only=true needs map_file (a map saved with ~save_map): without one "
+          "there is no map to localise in";
+  else if (BackwardsStampPolicy p; !ParseBackwardsStampPolicy(backwards_stamp_policy, &p))
+    os << "backwards_stamp_policy='" << backwards_stamp_policy
+       << "' must be reset_after, reset or ignore";
+  else if (!(backwards_stamp_reset_after > 0.0 && backwards_stamp_reset_after <= 86400.0))
+    os << "backwards_stamp_reset_after=" << backwards_stamp_reset_after
+       << " must be in (0, 86400] s";
   else if (!use_camera_info && !camera.Validate().empty())
     os << "camera.*: " << camera.Validate()
        << " (use_camera_info is false, so camera.fx, camera.fy, camera.cx, camera.cy, "
@@ -137,7 +152,15 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
             "map file (~save_map) loaded at start-up, the first frames relocalise in it; "
             "empty = a new map");
   table.Add("localization_only", &o->localization_only,
-            "start in localisation-only mode: track and relocalise in the map, add no keyframe");
+            "start in localisation-only mode: track and relocalise in the map, add no keyframe "
+            "(needs map_file)");
+  table.Add("backwards_stamp_policy", &o->backwards_stamp_policy,
+            "an image stamp older than the previous one: reset_after (restart when it jumps "
+            "back more than backwards_stamp_reset_after, else skip the frame), reset (always "
+            "restart) or ignore (always skip); a restart keeps the map in localisation-only mode");
+  table.Add("backwards_stamp_reset_after", &o->backwards_stamp_reset_after,
+            "seconds a stamp must jump back to restart under reset_after (smaller: jitter, the "
+            "frame is skipped)");
   return table;
 }
 
@@ -225,6 +248,11 @@ bool StereoSlamNodelet::LoadOptions(ros::NodeHandle& pnh) {
     return false;
   }
   if (!options_.map_file.empty()) {
+    // A save of this file killed mid-write (kill -9) left its temporary file next to it.
+    const int stale = RemoveStaleTemporaryFiles(options_.map_file);
+    if (stale > 0)
+      NODELET_INFO("pl_slam: removed %d stale temporary file(s) of an interrupted save of %s",
+                   stale, options_.map_file.c_str());
     // Checked completely now (format, checksum, consistency) so a bad file stops the nodelet
     // at start-up; the core loads it again once the calibration is known.
     try {
@@ -248,8 +276,11 @@ void StereoSlamNodelet::onInit() {
   ros::NodeHandle& nh = getNodeHandle();
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   if (!LoadOptions(pnh)) {
-    // Refuse to run misconfigured: no subscriptions, nothing published.
-    return;
+    // Refuse to run misconfigured, and say so to the process supervisor: the exception makes
+    // nodelet::Loader::load fail, so `nodelet load` and stereo_slam_node exit non-zero and
+    // roslaunch reports the death (required="true" then stops the launch). A nodelet manager
+    // hosting other nodelets keeps running; LoadOptions logged the one-line reason.
+    throw std::runtime_error("pl_slam: refused to start (see the FATAL message above)");
   }
 
   odom_pub_ = pnh.advertise<nav_msgs::Odometry>("odom", 10);
@@ -341,6 +372,12 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     return;
   }
   ++frames_processed_;
+  if (loops_rebase_) {
+    loops_offset_ = result.loops;
+    loops_rebase_ = false;
+  }
+  result.loops -= loops_offset_;
+  if (result.pose_valid) trajectory_stamps_ns_.push_back(frame.stamp_ns);
   if (!T_base_cam_) {
     const std::string cam_frame =
         options_.camera_frame.empty() ? header.frame_id : options_.camera_frame;
@@ -382,6 +419,9 @@ void StereoSlamNodelet::StartSystemLocked(const StereoCamera& camera) {
   current_pose_.reset();
   published_map_version_ = UINT64_MAX;
   last_stamp_ns_ = -1;
+  trajectory_stamps_ns_.clear();
+  loops_offset_ = 0;
+  loops_rebase_ = false;
 }
 
 void StereoSlamNodelet::ResetSystemLocked() {
@@ -389,6 +429,13 @@ void StereoSlamNodelet::ResetSystemLocked() {
   keyframe_path_.poses.clear();
   current_pose_.reset();
   published_map_version_ = UINT64_MAX;
+  trajectory_stamps_ns_.clear();
+  // A new map starts its count of frames, drops, refusals and loops.
+  frames_processed_ = 0;
+  dropped_ = 0;
+  rejected_ = 0;
+  loops_rebase_ = true;
+  PublishClearedMapLocked();
   if (!system_) return;
   system_->Reset();
   if (!options_.map_file.empty()) {
@@ -400,6 +447,43 @@ void StereoSlamNodelet::ResetSystemLocked() {
                     options_.map_file.c_str(), e.what());
     }
   }
+}
+
+void StereoSlamNodelet::RestartTrackingLocked() {
+  path_.poses.clear();
+  current_pose_.reset();
+  published_map_version_ = UINT64_MAX;
+  trajectory_stamps_ns_.clear();
+  if (!system_) return;
+  // SlamSystem has no "forget the pose, keep the map" call; LoadMap is exactly that for a map
+  // in a file (tracking restarts and relocalises, the trajectory starts again), so the current
+  // map goes through a private temporary file, unchanged.
+  const std::string tmp = (std::filesystem::temp_directory_path() /
+                           ("pl_slam_relocalise_" + std::to_string(::getpid()) + "_" +
+                            std::to_string(reinterpret_cast<uintptr_t>(this)) + ".plmap"))
+                              .string();
+  try {
+    system_->Flush();
+    system_->SaveMap(tmp);
+    system_->LoadMap(tmp);
+  } catch (const std::exception& e) {
+    NODELET_ERROR("pl_slam: cannot restart tracking in the current map (%s); keeping on", e.what());
+  }
+  std::error_code ignored;
+  std::filesystem::remove(tmp, ignored);
+}
+
+void StereoSlamNodelet::PublishClearedMapLocked() {
+  if (!path_pub_) return;  // not started
+  nav_msgs::Path path;
+  path.header.frame_id = options_.map_frame;
+  path.header.stamp = ros::Time::now();
+  path_pub_.publish(path);
+  visualization_msgs::MarkerArray markers;
+  markers.markers.emplace_back();
+  markers.markers.back().header = path.header;
+  markers.markers.back().action = visualization_msgs::Marker::DELETEALL;
+  markers_pub_.publish(markers);
 }
 
 }  // namespace ros_layer

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "pl_slam/ros/conversions.h"
+#include "pl_slam/ros/stamp_policy.h"
 #include "pl_slam/ros/stereo_slam_nodelet.h"
 #include "pl_slam/util/error.h"
 
@@ -180,17 +181,42 @@ void StereoSlamNodelet::WorkerLoop() {
         continue;
       }
     }
-    if (last_stamp_ns_ >= 0 && frame.stamp_ns == last_stamp_ns_) {
+    BackwardsStampPolicy policy = BackwardsStampPolicy::kResetAfter;
+    ParseBackwardsStampPolicy(options_.backwards_stamp_policy, &policy);  // validated at start
+    const auto reset_after_ns =
+        static_cast<int64_t>(std::llround(options_.backwards_stamp_reset_after * 1e9));
+    const StampAction action =
+        ClassifyStamp(last_stamp_ns_, frame.stamp_ns, policy, reset_after_ns);
+    if (action == StampAction::kSkipRepeated) {
       RejectInput("stamps", "stereo pair with the same stamp as the previous one skipped");
       continue;
     }
-    if (last_stamp_ns_ >= 0 && frame.stamp_ns < last_stamp_ns_) {
-      // Defined behaviour for a looping bag or a restarted camera clock: start a new map.
-      NODELET_WARN(
-          "pl_slam: image stamp went backwards (%.3f after %.3f, bag loop?); resetting "
-          "the map and the trajectory",
-          frame.stamp_ns * 1e-9, last_stamp_ns_ * 1e-9);
-      ResetSystemLocked();
+    if (action == StampAction::kSkipBackwards) {
+      std::ostringstream os;
+      os << "stereo pair stamped " << std::fixed << std::setprecision(3)
+         << (last_stamp_ns_ - frame.stamp_ns) * 1e-9
+         << " s before the previous one skipped (backwards_stamp_policy="
+         << options_.backwards_stamp_policy
+         << ", backwards_stamp_reset_after=" << options_.backwards_stamp_reset_after << " s)";
+      RejectInput("stamps_backwards", os.str());
+      continue;
+    }
+    if (action == StampAction::kRestart) {
+      // A looping bag or a restarted camera clock. While mapping: a new map. In
+      // localisation-only mode the map is what the robot localises in: keep it, relocalise.
+      if (system_->localization_only()) {
+        NODELET_WARN(
+            "pl_slam: image stamp went backwards (%.3f after %.3f, bag loop?); localisation "
+            "only: keeping the map, restarting tracking to relocalise in it",
+            frame.stamp_ns * 1e-9, last_stamp_ns_ * 1e-9);
+        RestartTrackingLocked();
+      } else {
+        NODELET_WARN(
+            "pl_slam: image stamp went backwards (%.3f after %.3f, bag loop?); resetting "
+            "the map and the trajectory",
+            frame.stamp_ns * 1e-9, last_stamp_ns_ * 1e-9);
+        ResetSystemLocked();
+      }
     }
     last_stamp_ns_ = frame.stamp_ns;
     frame.index = static_cast<int>(frames_processed_);

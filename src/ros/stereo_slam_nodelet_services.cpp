@@ -1,7 +1,9 @@
 // StereoSlamNodelet, services: save_trajectory, save_map, set_localization_only, reset.
 #include <string>
+#include <vector>
 
 #include "pl_slam/io/trajectory.h"
+#include "pl_slam/ros/stamp_policy.h"
 #include "pl_slam/ros/stereo_slam_nodelet.h"
 #include "pl_slam/util/error.h"
 
@@ -16,10 +18,17 @@ bool StereoSlamNodelet::OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
     if (req.path.empty()) throw InputError("path is empty");
     Trajectory traj;
     uint32_t processed = 0;
+    std::vector<int64_t> stamps_ns;
     {
       std::lock_guard<std::mutex> lock(system_mutex_);
       if (system_) traj = system_->trajectory();
+      stamps_ns = trajectory_stamps_ns_;
       processed = frames_processed_;
+    }
+    if (!traj.empty() && !AttachExactStamps(stamps_ns, &traj)) {
+      NODELET_WARN(
+          "pl_slam: save_trajectory: the image stamps kept do not match the poses; "
+          "stamps written from seconds (rounded to ~240 ns)");
     }
     WriteTrajectory(req.path, traj, format);
     res.success = true;
@@ -79,12 +88,12 @@ bool StereoSlamNodelet::OnSetLocalizationOnly(std_srvs::SetBool::Request& req,
 
 bool StereoSlamNodelet::OnReset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
   std::lock_guard<std::mutex> lock(system_mutex_);
-  ResetSystemLocked();
+  ResetSystemLocked();  // counters restart; an empty ~path and a DELETEALL ~markers go out now
   last_stamp_ns_ = -1;
   res.success = true;
   res.message = options_.map_file.empty()
-                    ? "map and trajectory cleared"
-                    : "trajectory cleared, map reloaded from " + options_.map_file;
+                    ? "map, trajectory and counters cleared"
+                    : "trajectory and counters cleared, map reloaded from " + options_.map_file;
   NODELET_INFO("pl_slam: reset");
   return true;
 }

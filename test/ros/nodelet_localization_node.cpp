@@ -90,7 +90,8 @@ TEST(NodeletLocalization, RelocalisesInASavedMap) {
   pose_sub.shutdown();
   status_sub.shutdown();
 
-  // 3. A corrupted map_file: the nodelet refuses to start (no services).
+  // 3. A corrupted map_file: the nodelet refuses to start, so loading it fails (and a
+  // `nodelet load` or stereo_slam_node process exits non-zero), and it offers no services.
   const std::string bad_path = map_path + ".bad";
   {
     std::ifstream in(map_path, std::ios::binary);
@@ -99,7 +100,7 @@ TEST(NodeletLocalization, RelocalisesInASavedMap) {
     std::ofstream(bad_path, std::ios::binary) << bytes;
   }
   ros::param::set("/pl_slam_bad/map_file", bad_path);
-  LoadNodelet("/pl_slam_bad");  // loads; onInit refuses to run
+  EXPECT_FALSE(LoadNodelet("/pl_slam_bad")) << "a nodelet with a truncated map_file loaded";
   EXPECT_FALSE(ros::service::waitForService("/pl_slam_bad/save_map", ros::Duration(2.0)))
       << "a nodelet with a truncated map_file started";
   UnloadNodelet("/pl_slam_bad");

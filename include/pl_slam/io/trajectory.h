@@ -1,6 +1,7 @@
 // Stamped pose sequences and their file formats (TUM, KITTI, EuRoC ground truth).
 #pragma once
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -15,6 +16,10 @@ struct StampedPose {
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
   double t = 0.0;  ///< seconds
   SE3 T_w_c;       ///< pose of the tracked frame in the world frame
+  /// The exact stamp in nanoseconds when known (the nodelet's image stamps), else -1; TUM and
+  /// EuRoC files are written from it then (a double holds a 1.4e9 s stamp only to ~240 ns).
+  /// Whoever changes t must reset it.
+  int64_t t_ns = -1;
 };
 
 using Trajectory = std::vector<StampedPose, Eigen::aligned_allocator<StampedPose>>;
@@ -59,7 +64,12 @@ std::string FormatTrajectory(const Trajectory& traj, TrajectoryFormat format);
 void WriteTrajectory(const std::string& path, const Trajectory& traj, TrajectoryFormat format);
 
 /// Writes `content` to `path` atomically: a crash leaves either the old file or the new one.
+/// Temporary files a killed writer left next to `path` are removed first.
 void WriteFileAtomic(const std::string& path, const std::string& content);
+
+/// Removes the temporary files of WriteFileAtomic(`path`) whose writer process no longer
+/// exists (a save interrupted by kill -9); returns how many. Live writers' files stay.
+int RemoveStaleTemporaryFiles(const std::string& path);
 
 /// Returns traj with every pose right-multiplied by T (e.g. body poses -> camera poses).
 Trajectory TransformTrajectory(const Trajectory& traj, const SE3& T_right);

@@ -66,6 +66,14 @@ struct NodeletOptions {
   std::string map_file;
   /// Start in localisation-only mode (tracking and relocalisation, no new keyframes).
   bool localization_only = false;
+  /// What an image stamp older than the previous frame's does (a looping bag, a restarted
+  /// camera clock, out-of-order frames): "reset_after" restarts when it jumps back by more
+  /// than backwards_stamp_reset_after s and skips the frame otherwise, "reset" restarts on
+  /// every backwards stamp, "ignore" always skips the frame. A restart clears the map while
+  /// mapping; in localisation-only mode it keeps the map and relocalises in it.
+  std::string backwards_stamp_policy = "reset_after";
+  /// Seconds a stamp must jump back to restart under "reset_after" (smaller jumps are jitter).
+  double backwards_stamp_reset_after = 1.0;
   SystemOptions system;  ///< core pipeline options ("tracker.*" keys)
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
@@ -127,6 +135,11 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   bool OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
                         pl_slam::SaveTrajectory::Response& res);
   bool OnReset(std_srvs::Trigger::Request& req, std_srvs::Trigger::Response& res);
+  /// Localisation-only restart: tracking starts again and relocalises in the current map,
+  /// which is kept as it is. system_mutex_ held.
+  void RestartTrackingLocked();
+  /// Sends an empty ~path and a DELETEALL ~markers at once (after a reset). system_mutex_ held.
+  void PublishClearedMapLocked();
 
   using ExactPolicy =
       message_filters::sync_policies::ExactTime<sensor_msgs::Image, sensor_msgs::CameraInfo,
@@ -197,6 +210,13 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   ros::WallTime last_map_publish_, last_debug_image_;
   std::optional<geometry_msgs::PoseStamped> current_pose_;
   ros::Time last_odom_stamp_;  // stamp of the last ~odom: the twist's time step
+  // Exact stamps of the frames in the core's trajectory (one per frame with a valid pose, in
+  // order, cleared with it), so saved trajectories carry the images' integer stamps.
+  std::vector<int64_t> trajectory_stamps_ns_;
+  // The core's loop count survives SlamSystem::Reset: status reports it minus loops_offset_,
+  // taken at the first frame after a reset (no loop can close before that frame).
+  int loops_offset_ = 0;
+  bool loops_rebase_ = false;
 };
 
 }  // namespace ros_layer
