@@ -20,6 +20,7 @@
 #include "pl_slam/io/trajectory.h"
 #include "pl_slam/map/map_io.h"
 #include "pl_slam/ros/conversions.h"
+#include "pl_slam/ros/map_visualization.h"
 #include "pl_slam/ros/stamp_policy.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
@@ -46,6 +47,8 @@ std::string NodeletOptions::Validate() const {
     os << "input_warning_period=" << input_warning_period << " must be in [0.1, 3600] s";
   else if (!(markers_rate >= 0.0 && markers_rate <= 100.0))
     os << "markers_rate=" << markers_rate << " must be in [0, 100] Hz (0 = no markers)";
+  else if (!(map_cloud_segment_step >= 0.0 && map_cloud_segment_step <= 100.0))
+    os << "map_cloud_segment_step=" << map_cloud_segment_step << " must be in [0, 100] m";
   else if (!(debug_image_rate >= 0.0 && debug_image_rate <= 1000.0))
     os << "debug_image_rate=" << debug_image_rate
        << " must be in [0, 1000] Hz (0 = no debug image)";
@@ -146,6 +149,8 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
   table.Add("markers_rate", &o->markers_rate,
             "highest rate of ~markers and the keyframe ~path, Hz, each sent when the map "
             "changed (0 = never)");
+  table.Add("map_cloud_segment_step", &o->map_cloud_segment_step,
+            "~map_cloud samples every 3D segment every this many m (0 = map points only)");
   table.Add("debug_image_rate", &o->debug_image_rate,
             "highest rate of ~debug_image, Hz, drawn only while subscribed (0 = never)");
   table.Add("map_file", &o->map_file,
@@ -288,6 +293,8 @@ void StereoSlamNodelet::onInit() {
   path_pub_ = pnh.advertise<nav_msgs::Path>("path", 1, true);
   status_pub_ = pnh.advertise<pl_slam::TrackingStatus>("status", 10);
   markers_pub_ = pnh.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  map_cloud_pub_ = pnh.advertise<sensor_msgs::PointCloud2>("map_cloud", 1, true);
+  keyframe_poses_pub_ = pnh.advertise<geometry_msgs::PoseArray>("keyframe_poses", 1, true);
   private_it_ = std::make_unique<image_transport::ImageTransport>(pnh);
   debug_pub_ = private_it_->advertise("debug_image", 1);
   localization_only_ = options_.localization_only;
@@ -484,6 +491,12 @@ void StereoSlamNodelet::PublishClearedMapLocked() {
   markers.markers.back().header = path.header;
   markers.markers.back().action = visualization_msgs::Marker::DELETEALL;
   markers_pub_.publish(markers);
+  sensor_msgs::PointCloud2 cloud =
+      MakeMapCloud(MapSnapshot(), SE3(), options_.map_frame, path.header.stamp, 0.0);
+  map_cloud_pub_.publish(cloud);
+  geometry_msgs::PoseArray poses;
+  poses.header = path.header;
+  keyframe_poses_pub_.publish(poses);
 }
 
 }  // namespace ros_layer

@@ -158,6 +158,12 @@ void StereoSlamNodelet::PublishMap(const std_msgs::Header& header) {
     published_map_version_ = snapshot.version;
     markers_pub_.publish(MakeMapMarkers(snapshot, T_map_w, options_.map_frame, header.stamp));
     keyframe_path_ = MakeKeyframePath(snapshot, T_map_w, *T_base_cam_, options_.map_frame);
+    // For downstream nodes, from the same snapshot: re-sent whenever bundle adjustment or a
+    // loop correction changes the map.
+    map_cloud_pub_.publish(MakeMapCloud(snapshot, T_map_w, options_.map_frame, header.stamp,
+                                        options_.map_cloud_segment_step));
+    keyframe_poses_pub_.publish(
+        MakeKeyframePoses(snapshot, T_map_w, *T_base_cam_, options_.map_frame, header.stamp));
   }
   // The keyframe trajectory (moved by bundle adjustment and loop closure) plus the current
   // pose; without keyframes (mapping off, or not yet) the per-frame path.

@@ -5,9 +5,11 @@
 #include <limits>
 
 #include <gtest/gtest.h>
+#include <geometry_msgs/PoseArray.h>
 #include <nav_msgs/Odometry.h>
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
+#include <sensor_msgs/PointCloud2.h>
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
 #include <visualization_msgs/MarkerArray.h>
@@ -67,6 +69,17 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
         ++marker_arrays;
         markers = *m;
       });
+  sensor_msgs::PointCloud2 cloud;
+  size_t clouds = 0;
+  ros::Subscriber cloud_sub = nh.subscribe<sensor_msgs::PointCloud2>(
+      "/pl_slam/map_cloud", 10, [&](const sensor_msgs::PointCloud2::ConstPtr& m) {
+        ++clouds;
+        cloud = *m;
+      });
+  geometry_msgs::PoseArray keyframe_poses;
+  ros::Subscriber keyframe_poses_sub = nh.subscribe<geometry_msgs::PoseArray>(
+      "/pl_slam/keyframe_poses", 10,
+      [&](const geometry_msgs::PoseArray::ConstPtr& m) { keyframe_poses = *m; });
   nav_msgs::Path path_msg;
   ros::Subscriber path_sub = nh.subscribe<nav_msgs::Path>(
       "/pl_slam/path", 10, [&](const nav_msgs::Path::ConstPtr& m) { path_msg = *m; });
@@ -166,6 +179,22 @@ TEST(NodeletPipeline, TracksSyntheticRecording) {
   EXPECT_GT(lines->points.size(), 20u);
   EXPECT_EQ(lines->points.size() % 2, 0u);
   EXPECT_EQ(points->header.frame_id, "map");
+  // ~map_cloud: the map points of the markers' snapshot (source 0) then segment samples
+  // (source 1), in the map frame; ~keyframe_poses: the keyframes of the same snapshot.
+  EXPECT_GT(clouds, 1u) << "~map_cloud not re-sent as the map grew";
+  EXPECT_EQ(cloud.header.frame_id, "map");
+  ASSERT_EQ(cloud.point_step, 16u);
+  ASSERT_EQ(cloud.data.size(), static_cast<size_t>(cloud.point_step) * cloud.width);
+  size_t cloud_points = 0, cloud_samples = 0;
+  for (size_t i = 0; i < cloud.width; ++i) {
+    const uint8_t source = cloud.data[i * cloud.point_step + 12];
+    cloud_points += source == 0;
+    cloud_samples += source == 1;
+  }
+  EXPECT_EQ(cloud_points, points->points.size());
+  EXPECT_GE(cloud_samples, lines->points.size());  // at least both endpoints per segment
+  EXPECT_EQ(keyframe_poses.header.frame_id, "map");
+  EXPECT_GT(keyframe_poses.poses.size(), 2u);
   ASSERT_GT(path_msg.poses.size(), 2u) << "no /pl_slam/path";
   EXPECT_EQ(path_msg.header.frame_id, "map");
   {

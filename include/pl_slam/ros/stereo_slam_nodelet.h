@@ -59,6 +59,8 @@ struct NodeletOptions {
   /// Highest rate (Hz) of ~markers and of the keyframe ~path, each published only when the
   /// map changed (0 = never).
   double markers_rate = 2.0;
+  /// ~map_cloud also samples every 3D segment every this many metres (0 = map points only).
+  double map_cloud_segment_step = 0.05;
   /// Highest rate (Hz) of ~debug_image, drawn only while someone subscribes (0 = never).
   double debug_image_rate = 10.0;
   /// A map file (SaveMap) loaded at start-up; the first frames relocalise in it. Checked
@@ -162,6 +164,7 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   std::unique_ptr<message_filters::Synchronizer<ApproxImagesPolicy>> approx_images_sync_;
 
   ros::Publisher odom_pub_, pose_pub_, path_pub_, status_pub_, markers_pub_;
+  ros::Publisher map_cloud_pub_, keyframe_poses_pub_;  // latched, with ~markers
   std::unique_ptr<image_transport::ImageTransport> private_it_;
   image_transport::Publisher debug_pub_;
   ros::ServiceServer save_srv_, reset_srv_, save_map_srv_, localization_srv_;
