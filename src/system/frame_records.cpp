@@ -37,6 +37,7 @@ Trajectory ResolveTrajectory(const FrameRecords& records, const KeyframePoseLook
       const FrameRecord& r = records[i];
       StampedPose sp;
       sp.t = r.stamp_s;
+      sp.t_ns = r.stamp_ns;
       sp.T_w_c = resolved[i] ? by_reference[i] : r.T_w_c;
       if (blend) {
         const double f = (r.stamp_s - t0) / (records[end].stamp_s - t0);

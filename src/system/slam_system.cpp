@@ -343,6 +343,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     std::lock_guard<std::mutex> lock(s.trajectory_mutex);
     FrameRecord rec;
     rec.stamp_s = frame.stamp_s();
+    rec.stamp_ns = frame.stamp_ns;
     rec.T_w_c = result.T_w_c;
     rec.reference = s.reference;
     rec.T_ref_c = s.T_w_reference.inverse() * result.T_w_c;

@@ -53,6 +53,15 @@ TEST(ResolveTrajectory, UnmovedKeyframesGiveTheTrackedPosesInBothModes) {
   }
 }
 
+TEST(ResolveTrajectory, ExactImageStampsAreCarried) {
+  Scene scene;
+  for (size_t i = 0; i < scene.records.size(); ++i)
+    scene.records[i].stamp_ns = 1403636579763555584 + static_cast<int64_t>(i) * 50000000;
+  const Trajectory t = ResolveTrajectory(scene.records, Lookup(scene.tracked_keyframes), true);
+  ASSERT_EQ(t.size(), scene.records.size());
+  for (size_t i = 0; i < t.size(); ++i) EXPECT_EQ(t[i].t_ns, scene.records[i].stamp_ns);
+}
+
 TEST(ResolveTrajectory, FramesBlendTheCorrectionsOfTheKeyframesAroundThem) {
   const Scene scene;
   // Bundle adjustment moved keyframe 1 by +1 cm in y and keyframe 2 by +3 cm in y.

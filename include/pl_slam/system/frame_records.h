@@ -4,6 +4,7 @@
 // bundle adjustment and loop corrections, which move keyframes, move the frames too.
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -19,7 +20,9 @@ namespace pl_slam {
 struct FrameRecord {
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
   double stamp_s = 0.0;
-  SE3 T_w_c;                     ///< as tracked
+  int64_t stamp_ns =
+      -1;     ///< the image's exact stamp (-1 = unknown), carried into StampedPose::t_ns
+  SE3 T_w_c;  ///< as tracked
   KeyframeId reference = kNoId;  ///< keyframe it was tracked after (kNoId: none yet)
   SE3 T_ref_c;                   ///< pose relative to the reference keyframe as then estimated
 };
