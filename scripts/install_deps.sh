@@ -14,6 +14,7 @@ PKGS=(
   libmessage-filters-dev libimage-transport-dev libcv-bridge-dev python3-cv-bridge
   libtf2-ros-dev libtf2-eigen-dev libtf2-geometry-msgs-dev python3-tf2-ros
   libstd-srvs-dev libnav-msgs-dev libvisualization-msgs-dev libgeometry-msgs-dev
+  libdiagnostic-updater-dev
   libsensor-msgs-dev libroslib-dev libros-rosgraph-msgs-dev
   libgtest-dev googletest libgmock-dev
   libopencv-dev libopencv-contrib-dev libeigen3-dev libceres-dev libsuitesparse-dev

@@ -49,6 +49,8 @@ std::string NodeletOptions::Validate() const {
     os << "markers_rate=" << markers_rate << " must be in [0, 100] Hz (0 = no markers)";
   else if (!(map_cloud_segment_step >= 0.0 && map_cloud_segment_step <= 100.0))
     os << "map_cloud_segment_step=" << map_cloud_segment_step << " must be in [0, 100] m";
+  else if (!(expected_rate >= 0.0 && expected_rate <= 1000.0))
+    os << "expected_rate=" << expected_rate << " must be in [0, 1000] Hz (0 = from the stamps)";
   else if (!(debug_image_rate >= 0.0 && debug_image_rate <= 1000.0))
     os << "debug_image_rate=" << debug_image_rate
        << " must be in [0, 1000] Hz (0 = no debug image)";
@@ -103,6 +105,7 @@ StereoSlamNodelet::~StereoSlamNodelet() {
   // Inputs first: no callback may post into the mailbox once teardown has started (the
   // subscribers are declared before the mailbox, so they would otherwise outlive it).
   input_check_timer_.stop();
+  diagnostics_timer_.stop();
   exact_sync_.reset();
   approx_sync_.reset();
   exact_images_sync_.reset();
@@ -151,6 +154,8 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
             "changed (0 = never)");
   table.Add("map_cloud_segment_step", &o->map_cloud_segment_step,
             "~map_cloud samples every 3D segment every this many m (0 = map points only)");
+  table.Add("expected_rate", &o->expected_rate,
+            "input rate the diagnostics expect, Hz (0 = from the image stamps)");
   table.Add("debug_image_rate", &o->debug_image_rate,
             "highest rate of ~debug_image, Hz, drawn only while subscribed (0 = never)");
   table.Add("map_file", &o->map_file,
@@ -307,6 +312,13 @@ void StereoSlamNodelet::onInit() {
   tf_listener_ = std::make_unique<tf2_ros::TransformListener>(*tf_buffer_, nh);
   tf_broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
 
+  diagnostics_ = std::make_unique<diagnostic_updater::Updater>(nh, pnh);
+  diagnostics_->setHardwareID("pl_slam");
+  diagnostics_->add("input", this, &StereoSlamNodelet::DiagnoseInput);
+  diagnostics_->add("tracking", this, &StereoSlamNodelet::DiagnoseTracking);
+  diagnostics_timer_ = pnh.createWallTimer(
+      ros::WallDuration(1.0), [this](const ros::WallTimerEvent&) { diagnostics_->force_update(); });
+
   worker_ = std::thread(&StereoSlamNodelet::WorkerLoop, this);
 
   it_ = std::make_unique<image_transport::ImageTransport>(nh);
@@ -406,6 +418,7 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     // broadcasts after a bag loop (older stamps) raise no TF_OLD_DATA warnings here.
     tf_listener_.reset();
   }
+  NoteForDiagnostics(frame, result);
   Publish(result, header);
   PublishMap(header);
   PublishDebugImage(frame, result, header);

@@ -9,6 +9,7 @@
 #include <optional>
 #include <thread>
 
+#include <diagnostic_updater/diagnostic_updater.h>
 #include <image_transport/image_transport.h>
 #include <image_transport/subscriber_filter.h>
 #include <message_filters/subscriber.h>
@@ -59,6 +60,9 @@ struct NodeletOptions {
   /// Highest rate (Hz) of ~markers and of the keyframe ~path, each published only when the
   /// map changed (0 = never).
   double markers_rate = 2.0;
+  /// Input rate (Hz) the diagnostics compare against: WARN below 3/4 of it. 0 = the rate the
+  /// image stamps imply.
+  double expected_rate = 0.0;
   /// ~map_cloud also samples every 3D segment every this many metres (0 = map points only).
   double map_cloud_segment_step = 0.05;
   /// Highest rate (Hz) of ~debug_image, drawn only while someone subscribes (0 = never).
@@ -119,6 +123,13 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   /// Periodic check: images arriving but no synchronised pair formed (missing camera_info,
   /// unsynchronised stamps, a topic not remapped).
   void CheckInputs(const ros::WallTimerEvent&);
+  /// diagnostic_updater tasks (stereo_slam_nodelet_diagnostics.cpp): the input rate against
+  /// the expected one with the drop and rejection counts; tracking state, time since the last
+  /// good frame, time per frame against the frame period, mapping queue.
+  void DiagnoseInput(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  void DiagnoseTracking(diagnostic_updater::DiagnosticStatusWrapper& stat);
+  /// What the diagnostics need from a processed frame (worker thread).
+  void NoteForDiagnostics(const StereoFrame& frame, const FrameResult& result);
   void WorkerLoop();
   void ProcessOne(const StereoFrame& frame, const std_msgs::Header& header);
   void Publish(const FrameResult& result, const std_msgs::Header& header);
@@ -169,6 +180,18 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   image_transport::Publisher debug_pub_;
   ros::ServiceServer save_srv_, reset_srv_, save_map_srv_, localization_srv_;
   ros::WallTimer input_check_timer_;
+  std::unique_ptr<diagnostic_updater::Updater> diagnostics_;
+  ros::WallTimer diagnostics_timer_;
+  // Diagnostics state, written by the worker and the input callbacks, read by the timer.
+  std::mutex diagnostics_mutex_;
+  uint32_t diag_pairs_last_ = 0;      // pairs_seen_ at the last input report
+  ros::WallTime diag_last_report_;    // when that was
+  int64_t diag_last_stamp_ns_ = -1;   // the last processed frame's stamp
+  double diag_stamp_period_s_ = 0.0;  // smoothed stamp interval of the input
+  double diag_frame_ms_ = 0.0;        // smoothed processing time per frame
+  int diag_state_ = -1;               // TrackingState of the last frame, -1 = none yet
+  ros::WallTime diag_last_good_;      // wall time of the last frame with a valid pose
+  int diag_mapping_queue_ = 0;
   std::unique_ptr<tf2_ros::Buffer> tf_buffer_;
   std::unique_ptr<tf2_ros::TransformListener> tf_listener_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> tf_broadcaster_;
