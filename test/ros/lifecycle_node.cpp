@@ -17,17 +17,13 @@
 #include <nav_msgs/Path.h>
 #include <ros/ros.h>
 #include <rosgraph_msgs/Log.h>
-#include <sensor_msgs/CameraInfo.h>
-#include <sensor_msgs/Image.h>
-#include <sensor_msgs/image_encodings.h>
 #include <std_srvs/SetBool.h>
 #include <std_srvs/Trigger.h>
 #include <visualization_msgs/MarkerArray.h>
 
 #include "pl_slam/SaveTrajectory.h"
 #include "pl_slam/TrackingStatus.h"
-#include "pl_slam/ros/bag_io.h"
-#include "pl_slam/ros/conversions.h"
+#include "test_util/stereo_feed.h"
 
 namespace {
 
@@ -37,10 +33,8 @@ using pl_slam::StereoFrame;
 constexpr int64_t kFirstStampNs = 1403636579763555584;
 
 struct Harness {
-  ros::Publisher left_pub, right_pub, left_info_pub, right_info_pub;
+  pl_slam::testing_util::StereoFeed feed;
   ros::Subscriber status_sub, path_sub, markers_sub, rosout_sub;
-  std::vector<StereoFrame> frames;
-  pl_slam::StereoCamera camera;
   std::size_t next_frame = 0;
   std::size_t map_start_frame = 0;   // the recording's frame the map after ~reset starts at
   int64_t stamp_ns = kFirstStampNs;  // stamp of the next pair
@@ -54,32 +48,11 @@ struct Harness {
 
 Harness* h = nullptr;
 
-sensor_msgs::Image ToImage(const cv::Mat& grey, ros::Time stamp, const std::string& frame) {
-  sensor_msgs::Image msg;
-  msg.header.stamp = stamp;
-  msg.header.frame_id = frame;
-  msg.height = static_cast<uint32_t>(grey.rows);
-  msg.width = static_cast<uint32_t>(grey.cols);
-  msg.encoding = sensor_msgs::image_encodings::MONO8;
-  msg.step = static_cast<uint32_t>(grey.cols);
-  msg.data.resize(static_cast<std::size_t>(msg.step) * grey.rows);
-  for (int r = 0; r < grey.rows; ++r)
-    std::copy(grey.ptr<uint8_t>(r), grey.ptr<uint8_t>(r) + msg.step,
-              msg.data.begin() + r * msg.step);
-  return msg;
-}
-
 void PublishPair(int64_t stamp_ns) {
-  const StereoFrame& f = h->frames[h->next_frame % h->frames.size()];
+  const StereoFrame& f = h->feed.frames[h->next_frame % h->feed.frames.size()];
   ros::Time stamp;
   stamp.fromNSec(static_cast<uint64_t>(stamp_ns));
-  sensor_msgs::CameraInfo li, ri;
-  pl_slam::ros_layer::StereoCameraToInfo(h->camera, "cam0", "cam1", &li, &ri);
-  li.header.stamp = ri.header.stamp = stamp;
-  h->left_info_pub.publish(li);
-  h->right_info_pub.publish(ri);
-  h->left_pub.publish(ToImage(f.left, stamp, "cam0"));
-  h->right_pub.publish(ToImage(f.right, stamp, "cam1"));
+  h->feed.Publish(f.left, f.right, stamp);
 }
 
 std::size_t StatusCount() {
@@ -281,16 +254,7 @@ int main(int argc, char** argv) {
     ROS_FATAL("lifecycle_test needs ~bag (the synthetic test recording)");
     return 1;
   }
-  {
-    pl_slam::ros_layer::BagStereoSource source(bag);
-    harness.camera = source.camera();
-    StereoFrame f;
-    while (harness.frames.size() < 80 && source.Next(&f)) harness.frames.push_back(f);
-  }
-  harness.left_pub = nh.advertise<sensor_msgs::Image>("/cam0/image_raw", 5);
-  harness.right_pub = nh.advertise<sensor_msgs::Image>("/cam1/image_raw", 5);
-  harness.left_info_pub = nh.advertise<sensor_msgs::CameraInfo>("/cam0/camera_info", 5);
-  harness.right_info_pub = nh.advertise<sensor_msgs::CameraInfo>("/cam1/camera_info", 5);
+  if (!harness.feed.Open(nh, bag, 1, 80, "lifecycle_test")) return 1;
   harness.status_sub = nh.subscribe<pl_slam::TrackingStatus>(
       "/pl_slam/status", 100, [&harness](const pl_slam::TrackingStatus::ConstPtr& m) {
         std::lock_guard<std::mutex> lock(harness.mutex);
@@ -314,11 +278,7 @@ int main(int argc, char** argv) {
       });
   const bool connected = WaitFor(
       [&] {
-        return harness.left_pub.getNumSubscribers() > 0 &&
-               harness.right_pub.getNumSubscribers() > 0 &&
-               harness.left_info_pub.getNumSubscribers() > 0 &&
-               harness.right_info_pub.getNumSubscribers() > 0 &&
-               harness.status_sub.getNumPublishers() > 0 &&
+        return harness.feed.Connected() && harness.status_sub.getNumPublishers() > 0 &&
                harness.rosout_sub.getNumPublishers() > 0;
       },
       60.0);

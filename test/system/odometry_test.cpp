@@ -9,6 +9,7 @@
 
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
+#include "test_util/system_options.h"
 
 namespace pl_slam {
 namespace {
@@ -84,10 +85,7 @@ TEST(OdometryChainTest, OdomStaysContinuousThroughALoopClosure) {
   sim::SequenceOptions so;
   so.scene = sim::SceneKind::kRoom;
   const sim::SyntheticSequence seq(so);
-  SystemOptions opt;
-  opt.mapping.threaded = false;
-  opt.loop.vocabulary = std::string(PL_SLAM_SOURCE_DIR) + "/vocabulary";
-  SlamSystem sys(seq.camera(), opt);
+  SlamSystem sys(seq.camera(), testing_util::SequentialWithVocabulary());
   std::vector<double> odom_steps, map_steps;
   SE3 last_odom, last_map;
   int loops = 0;

@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 
 #include "pl_slam/util/error.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
@@ -17,17 +18,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-StereoCamera TestCamera() {
-  StereoCamera cam;
-  cam.fx = 450.0;
-  cam.fy = 450.0;
-  cam.cx = 375.5;
-  cam.cy = 239.5;
-  cam.baseline = 0.11;
-  cam.width = 752;
-  cam.height = 480;
-  return cam;
-}
+StereoCamera TestCamera() { return testing_util::EurocSizedCamera(); }
 
 SE3 TrueMotion() {
   const Eigen::Vector3d axis = Eigen::Vector3d(0.2, 1.0, -0.3).normalized();
