@@ -13,7 +13,6 @@
 #include <map>
 #include <memory>
 #include <opencv2/features2d.hpp>
-#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <vector>
@@ -452,30 +451,6 @@ TEST(SensorEffectsTest, BlurVignettingAndExposurePresets) {
   bad = SequenceOptions();
   bad.vignetting = 1.5;
   EXPECT_EQ(bad.Validate().rfind("vignetting=", 0), 0u);
-}
-
-// Writes a few frames of every layout to $PL_SLAM_LOWTEX_DUMP (for looking at them).
-TEST_F(LowtexTest, DumpFramesWhenAsked) {
-  const char* dir = std::getenv("PL_SLAM_LOWTEX_DUMP");
-  if (dir == nullptr) GTEST_SKIP() << "set PL_SLAM_LOWTEX_DUMP=DIR to write frames";
-  for (SceneKind kind : kLowtex) {
-    for (bool bare : {false, true}) {
-      const SyntheticSequence& seq = bare ? Bare(kind) : Textured(kind);
-      const int n = static_cast<int>(seq.size());
-      for (int k = 0; k < 4; ++k) {
-        const int i = k * (n - 1) / 3;
-        cv::Mat img;
-        cv::cvtColor(seq.Render(i).left, img, cv::COLOR_GRAY2BGR);
-        for (const VisibleEdge& e : seq.VisibleStructuralEdges(i)) {
-          cv::line(img, cv::Point2d(e.a.x(), e.a.y()), cv::Point2d(e.b.x(), e.b.y()),
-                   cv::Scalar(0, 0, 255), 1);
-        }
-        cv::imwrite(std::string(dir) + "/" + SceneKindName(kind) + (bare ? "_bare_" : "_tex_") +
-                        std::to_string(i) + ".png",
-                    img);
-      }
-    }
-  }
 }
 
 }  // namespace
