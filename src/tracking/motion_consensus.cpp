@@ -291,7 +291,9 @@ ConsensusResult FindMotionConsensus(const StereoCamera& cam, const PointMatches3
     if (p_good >= 1.0) return 1;
     if (!(p_good > 0.0)) return options.max_hypotheses;
     const double k = std::log(1.0 - options.confidence) / std::log(1.0 - p_good);
-    return std::clamp(static_cast<int>(std::ceil(k)), 1, options.max_hypotheses);
+    // Clamped as a double: k is huge when good sets are rare.
+    return static_cast<int>(
+        std::clamp(std::ceil(k), 1.0, static_cast<double>(options.max_hypotheses)));
   };
   // A prior most correspondences already agree with needs few draws to be confirmed.
   int needed = draws_needed(std::max(best_support, 0), 3.0);

@@ -128,8 +128,6 @@ struct StereoTracker::Impl {
   struct Estimation {
     MotionEstimate est;
     int point_matches = 0, line_matches = 0;
-    int consensus_inliers = 0;  // supporters of the consensus pose (when consensus ran)
-    bool consensus_ok = false;
     double matching_ms = 0.0, motion_ms = 0.0;
   };
 
@@ -203,8 +201,6 @@ struct StereoTracker::Impl {
       const ConsensusResult c =
           FindMotionConsensus(camera, pm, points_cur, lm, lines_cur_P, lines_cur_Q, candidates,
                               options.min_inliers, options.consensus);
-      out.consensus_inliers = c.point_inliers + c.line_inliers;
-      out.consensus_ok = c.success;
       if (c.success) {
         start = c.T_cur_prev;
         pm = Gated(pm, c.point_gate);

@@ -98,8 +98,8 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* options);
 /// or an unusable camera_info is refused with a throttled warning (one per kind of problem
 /// every input_warning_period s) and counted in status.frames_rejected; images that never
 /// form a synchronised pair (no camera_info, stamps that differ) are reported as often. A stamp
-/// older than the previous frame's (a looping bag) resets the map with a warning; a repeated stamp
-/// is skipped.
+/// older than the previous frame's is handled by backwards_stamp_policy (a restart keeps the map
+/// in localisation-only mode); a repeated stamp is skipped.
 class StereoSlamNodelet : public nodelet::Nodelet {
  public:
   StereoSlamNodelet() = default;
