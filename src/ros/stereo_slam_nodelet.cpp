@@ -396,7 +396,6 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     loops_rebase_ = false;
   }
   result.loops -= loops_offset_;
-  if (result.pose_valid) trajectory_stamps_ns_.push_back(frame.stamp_ns);
   if (!T_base_cam_) {
     const std::string cam_frame =
         options_.camera_frame.empty() ? header.frame_id : options_.camera_frame;
@@ -439,7 +438,6 @@ void StereoSlamNodelet::StartSystemLocked(const StereoCamera& camera) {
   current_pose_.reset();
   published_map_version_ = UINT64_MAX;
   last_stamp_ns_ = -1;
-  trajectory_stamps_ns_.clear();
   loops_offset_ = 0;
   loops_rebase_ = false;
 }
@@ -449,7 +447,6 @@ void StereoSlamNodelet::ResetSystemLocked() {
   keyframe_path_.poses.clear();
   current_pose_.reset();
   published_map_version_ = UINT64_MAX;
-  trajectory_stamps_ns_.clear();
   // A new map starts its count of frames, drops, refusals and loops.
   frames_processed_ = 0;
   dropped_ = 0;
@@ -473,7 +470,6 @@ void StereoSlamNodelet::RestartTrackingLocked() {
   path_.poses.clear();
   current_pose_.reset();
   published_map_version_ = UINT64_MAX;
-  trajectory_stamps_ns_.clear();
   if (!system_) return;
   // SlamSystem has no "forget the pose, keep the map" call; LoadMap is exactly that for a map
   // in a file (tracking restarts and relocalises, the trajectory starts again), so the current

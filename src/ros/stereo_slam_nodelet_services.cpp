@@ -18,18 +18,12 @@ bool StereoSlamNodelet::OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
     if (req.path.empty()) throw InputError("path is empty");
     Trajectory traj;
     uint32_t processed = 0;
-    std::vector<int64_t> stamps_ns;
     {
       std::lock_guard<std::mutex> lock(system_mutex_);
       if (system_) traj = system_->trajectory();
-      stamps_ns = trajectory_stamps_ns_;
       processed = frames_processed_;
     }
-    if (!traj.empty() && !AttachExactStamps(stamps_ns, &traj)) {
-      NODELET_WARN(
-          "pl_slam: save_trajectory: the image stamps kept do not match the poses; "
-          "stamps written from seconds (rounded to ~240 ns)");
-    }
+    // The core's trajectory carries the images' integer stamps (StampedPose::t_ns).
     WriteTrajectory(req.path, traj, format);
     res.success = true;
     res.poses = static_cast<uint32_t>(traj.size());

@@ -17,6 +17,9 @@ namespace {
 constexpr double kMaxLineCos = 0.985;  // ~10 degrees
 // Sampled points closer together than this (metres) fix no rotation.
 constexpr double kMinPointSpacing = 0.02;
+// A segment pair whose angle changed by more than this between the frames (radians) is no
+// rigid motion of the same two lines.
+constexpr double kMaxLineAngleChange = 0.1;
 constexpr uint64_t kSeed = 0x9e3779b97f4a7c15ULL;
 
 // Rotation R minimising sum |R a_i - b_i|^2 over (already centred) vector pairs.
@@ -313,20 +316,11 @@ ConsensusResult FindMotionConsensus(const StereoCamera& cam, const PointMatches3
       line_pair[1] = j;
       const LineMatch3D2D& mi = lines[i];
       const LineMatch3D2D& mj = lines[j];
-      // Direction noise of a triangulated segment: its endpoints' depth noise over its length.
-      auto dir_sigma = [&](const Eigen::Vector3d& P, const Eigen::Vector3d& Q) {
-        return (depth_sigma(P) + depth_sigma(Q)) / std::max((Q - P).norm(), 1e-3);
-      };
-      const double angle_tol =
-          std::clamp(3.0 * (dir_sigma(mi.P_prev, mi.Q_prev) + dir_sigma(mj.P_prev, mj.Q_prev) +
-                            dir_sigma(lines_cur_P[i], lines_cur_Q[i]) +
-                            dir_sigma(lines_cur_P[j], lines_cur_Q[j])),
-                     0.05, 0.5);
       solved = RigidFromLines(
           0.5 * (mi.P_prev + mi.Q_prev), mi.Q_prev - mi.P_prev, 0.5 * (mj.P_prev + mj.Q_prev),
           mj.Q_prev - mj.P_prev, 0.5 * (lines_cur_P[i] + lines_cur_Q[i]),
           lines_cur_Q[i] - lines_cur_P[i], 0.5 * (lines_cur_P[j] + lines_cur_Q[j]),
-          lines_cur_Q[j] - lines_cur_P[j], 0.1, &T);
+          lines_cur_Q[j] - lines_cur_P[j], kMaxLineAngleChange, &T);
     } else {
       idx[0] = sample_points[pick(sample_points.size())];
       idx[1] = sample_points[pick(sample_points.size())];

@@ -73,12 +73,7 @@ int main(int argc, char** argv) {
   spinner.start();
   Harness harness;
   h = &harness;
-  std::string bag;
-  if (!pnh.getParam("bag", bag)) {
-    ROS_FATAL("diagnostics_test needs ~bag (the synthetic test recording)");
-    return 1;
-  }
-  if (!harness.feed.Open(nh, bag, 50, 50, "diagnostics_test")) return 1;
+  if (!harness.feed.Open(nh, pnh, 50, 50, "diagnostics_test")) return 1;
   ros::Subscriber diag_sub = nh.subscribe<diagnostic_msgs::DiagnosticArray>(
       "/diagnostics", 100, [&harness](const diagnostic_msgs::DiagnosticArray::ConstPtr& m) {
         std::lock_guard<std::mutex> lock(harness.mutex);
@@ -92,10 +87,8 @@ int main(int argc, char** argv) {
         }
       });
   // Wait until the nodelet listens on the images and reports.
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(30.0);
-  while (ros::ok() && ros::WallTime::now() < end &&
-         (!harness.feed.Connected() || diag_sub.getNumPublishers() == 0))
-    ros::WallDuration(0.05).sleep();
+  pl_slam::testing_util::WaitFor(
+      [&] { return harness.feed.Connected() && diag_sub.getNumPublishers() > 0; }, 30.0);
   const int rc = RUN_ALL_TESTS();
   spinner.stop();
   return rc;

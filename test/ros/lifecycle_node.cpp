@@ -65,15 +65,7 @@ pl_slam::TrackingStatus LastStatus() {
   return h->statuses.empty() ? pl_slam::TrackingStatus() : h->statuses.back();
 }
 
-template <typename Pred>
-bool WaitFor(Pred pred, double timeout) {
-  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout);
-  while (ros::ok() && ros::WallTime::now() < end) {
-    if (pred()) return true;
-    ros::WallDuration(0.01).sleep();
-  }
-  return pred();
-}
+using pl_slam::testing_util::WaitFor;
 
 /// Sends the next frame of the recording 50 ms (plus a few odd nanoseconds) after the last
 /// one and waits for its status.
@@ -249,12 +241,7 @@ int main(int argc, char** argv) {
   spinner.start();
   Harness harness;
   h = &harness;
-  std::string bag;
-  if (!pnh.getParam("bag", bag)) {
-    ROS_FATAL("lifecycle_test needs ~bag (the synthetic test recording)");
-    return 1;
-  }
-  if (!harness.feed.Open(nh, bag, 1, 80, "lifecycle_test")) return 1;
+  if (!harness.feed.Open(nh, pnh, 1, 80, "lifecycle_test")) return 1;
   harness.status_sub = nh.subscribe<pl_slam::TrackingStatus>(
       "/pl_slam/status", 100, [&harness](const pl_slam::TrackingStatus::ConstPtr& m) {
         std::lock_guard<std::mutex> lock(harness.mutex);

@@ -34,16 +34,33 @@ inline sensor_msgs::Image MonoImage(const cv::Mat& grey, ros::Time stamp,
   return msg;
 }
 
+/// Spins (sleeping 10 ms) until `pred` holds or `timeout_s` seconds pass; returns pred().
+template <typename Pred>
+bool WaitFor(Pred pred, double timeout_s) {
+  const ros::WallTime end = ros::WallTime::now() + ros::WallDuration(timeout_s);
+  while (ros::ok() && ros::WallTime::now() < end) {
+    if (pred()) return true;
+    ros::WallDuration(0.01).sleep();
+  }
+  return pred();
+}
+
 /// The recording's first frames and the publishers that send them.
 struct StereoFeed {
   ros::Publisher left_pub, right_pub, left_info_pub, right_info_pub;
   std::vector<StereoFrame> frames;
   StereoCamera camera;
 
-  /// Reads up to max_frames frames of the bag and advertises the inputs; false (with a
-  /// FATAL line naming `who`) when the bag holds fewer than min_frames.
-  bool Open(ros::NodeHandle& nh, const std::string& bag, size_t min_frames, size_t max_frames,
+  /// Reads up to max_frames frames of the bag named by the private parameter ~bag and
+  /// advertises the inputs; false (with a FATAL line naming `who`) without ~bag or when the
+  /// bag holds fewer than min_frames.
+  bool Open(ros::NodeHandle& nh, const ros::NodeHandle& pnh, size_t min_frames, size_t max_frames,
             const char* who) {
+    std::string bag;
+    if (!pnh.getParam("bag", bag)) {
+      ROS_FATAL("%s needs ~bag (the synthetic test recording)", who);
+      return false;
+    }
     ros_layer::BagStereoSource source(bag);
     camera = source.camera();
     StereoFrame f;

@@ -1,12 +1,9 @@
 // Image stamps in the nodelet: what a frame whose stamp is not after the previous frame's
-// does, and the exact stamps of a saved trajectory.
+// does.
 #pragma once
 
 #include <cstdint>
 #include <string>
-#include <vector>
-
-#include "pl_slam/io/trajectory.h"
 
 namespace pl_slam {
 namespace ros_layer {
@@ -33,10 +30,6 @@ enum class StampAction {
 /// frame); `reset_after_ns` is backwards_stamp_reset_after in nanoseconds.
 StampAction ClassifyStamp(int64_t last_ns, int64_t stamp_ns, BackwardsStampPolicy policy,
                           int64_t reset_after_ns);
-
-/// Sets each pose's t_ns to the matching image stamp: `stamps_ns` holds one per pose, in
-/// order. False (nothing changed) when the counts differ or a stamp is not the pose's t.
-bool AttachExactStamps(const std::vector<int64_t>& stamps_ns, Trajectory* traj);
 
 }  // namespace ros_layer
 }  // namespace pl_slam

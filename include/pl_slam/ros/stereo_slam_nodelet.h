@@ -236,9 +236,6 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   ros::WallTime last_map_publish_, last_debug_image_;
   std::optional<geometry_msgs::PoseStamped> current_pose_;
   ros::Time last_odom_stamp_;  // stamp of the last ~odom: the twist's time step
-  // Exact stamps of the frames in the core's trajectory (one per frame with a valid pose, in
-  // order, cleared with it), so saved trajectories carry the images' integer stamps.
-  std::vector<int64_t> trajectory_stamps_ns_;
   // The core's loop count survives SlamSystem::Reset: status reports it minus loops_offset_,
   // taken at the first frame after a reset (no loop can close before that frame).
   int loops_offset_ = 0;
