@@ -12,6 +12,8 @@
 namespace pl_slam::sim {
 namespace {
 
+constexpr int kTile = 16;  // pixels per side of the screen tiles of the supersampling pass
+
 // Per-view constants of one quad. For the pixel ray d = ((u - cx) / fx, (v - cy) / fy, 1) in
 // the camera frame, every dot product with a camera-frame vector is affine in (u, v), so the
 // per-pixel work is a handful of multiply-adds and one division.
@@ -189,6 +191,25 @@ RenderedView Renderer::Render(const SE3& T_w_c) const {
     }
   });
 
+  // Screen tiles listing the quads whose bounding box overlaps them, in quad order: the
+  // supersampled rays of pass 2 test only those (worlds of thousands of quads, the street
+  // scenes, would otherwise test every quad per ray). Same quads, same order, same result.
+  const int tiles_x = (width + kTile - 1) / kTile, tiles_y = (height + kTile - 1) / kTile;
+  std::vector<int> tile_start(static_cast<std::size_t>(tiles_x) * tiles_y + 1, 0);
+  auto for_tiles = [&](const QuadView& q, const auto& fn) {
+    if (q.u_max < q.u_min || q.v_max < q.v_min) return;
+    for (int ty = q.v_min / kTile; ty <= q.v_max / kTile; ++ty)
+      for (int tx = q.u_min / kTile; tx <= q.u_max / kTile; ++tx) fn(ty * tiles_x + tx);
+  };
+  for (const QuadView& q : views) for_tiles(q, [&](int t) { ++tile_start[t + 1]; });
+  for (std::size_t t = 1; t < tile_start.size(); ++t) tile_start[t] += tile_start[t - 1];
+  std::vector<int> tile_quads(tile_start.back());
+  {
+    std::vector<int> fill(tile_start.begin(), tile_start.end() - 1);
+    for (std::size_t qi = 0; qi < views.size(); ++qi)
+      for_tiles(views[qi], [&](int t) { tile_quads[fill[t]++] = static_cast<int>(qi); });
+  }
+
   // Pass 2: shading. Pixels whose neighbours see another quad (occlusion boundaries, room
   // corners) average k x k rays so that straight edges are not staircases.
   const int k = edge_supersampling_;
@@ -209,18 +230,22 @@ RenderedView Renderer::Render(const SE3& T_w_c) const {
           continue;
         }
         double sum = 0.0;
+        const int tile = (v / kTile) * tiles_x + u / kTile;
+        const int* first = tile_quads.data() + tile_start[tile];
+        const int* last = tile_quads.data() + tile_start[tile + 1];
         for (int sy = 0; sy < k; ++sy) {
           const double y = v + (sy + 0.5) / k - 0.5;
           for (int sx = 0; sx < k; ++sx) {
             const double x = u + (sx + 0.5) / k - 0.5;
             double best = std::numeric_limits<double>::infinity();
             int best_id = -1;
-            for (std::size_t qi = 0; qi < views.size(); ++qi) {
+            for (const int* it = first; it != last; ++it) {
+              const int qi = *it;
               const QuadView& q = views[qi];
               double lambda;
               if (q.InBox(u, v) && q.Hit(x, y, z_near, &lambda) && lambda < best) {
                 best = lambda;
-                best_id = static_cast<int>(qi);
+                best_id = qi;
               }
             }
             sum += best_id >= 0 ? views[best_id].Shade(x, y) : background;
