@@ -104,6 +104,8 @@ void InstallRosLogSink() {
 StereoSlamNodelet::~StereoSlamNodelet() {
   // Inputs first: no callback may post into the mailbox once teardown has started (the
   // subscribers are declared before the mailbox, so they would otherwise outlive it).
+  input_stop_ = true;
+  if (input_thread_.joinable()) input_thread_.join();
   input_check_timer_.stop();
   diagnostics_timer_.stop();
   exact_sync_.reset();
@@ -114,6 +116,8 @@ StereoSlamNodelet::~StereoSlamNodelet() {
   right_sub_.unsubscribe();
   left_info_sub_.unsubscribe();
   right_info_sub_.unsubscribe();
+  input_queue_.disable();
+  input_queue_.clear();
   stop_ = true;
   mailbox_cv_.notify_all();
   if (worker_.joinable()) worker_.join();
@@ -131,7 +135,9 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* o) {
             "ApproximateTime instead of ExactTime synchronisation");
   table.Add("sync_tolerance", &o->sync_tolerance,
             "largest stamp difference with approximate sync, seconds");
-  table.Add("queue_size", &o->queue_size, "subscriber and synchroniser queue length");
+  table.Add("queue_size", &o->queue_size,
+            "subscriber and synchroniser queue length per input (the worker keeps only the "
+            "newest pair)");
   table.Add("use_camera_info", &o->use_camera_info,
             "calibration from the camera_info topics (raw images rectified from K, D, R, P); "
             "false = from camera.*");
@@ -292,6 +298,10 @@ void StereoSlamNodelet::onInit() {
     // hosting other nodelets keeps running; LoadOptions logged the one-line reason.
     throw std::runtime_error("pl_slam: refused to start (see the FATAL message above)");
   }
+  accounting_ = std::make_unique<InputAccounting>(options_.approximate_sync
+                                                      ? InputAccounting::Policy::kApproximate
+                                                      : InputAccounting::Policy::kExact,
+                                                  static_cast<size_t>(options_.queue_size));
 
   odom_pub_ = pnh.advertise<nav_msgs::Odometry>("odom", 10);
   pose_pub_ = pnh.advertise<geometry_msgs::PoseStamped>("pose", 10);
@@ -321,37 +331,43 @@ void StereoSlamNodelet::onInit() {
 
   worker_ = std::thread(&StereoSlamNodelet::WorkerLoop, this);
 
-  it_ = std::make_unique<image_transport::ImageTransport>(nh);
   const int q = options_.queue_size;
+  ros::NodeHandle input_nh(nh);
+  input_nh.setCallbackQueue(&input_queue_);
+  it_ = std::make_unique<image_transport::ImageTransport>(input_nh);
   left_sub_.subscribe(*it_, "left/image", q,
                       image_transport::TransportHints("raw", ros::TransportHints(), pnh));
   right_sub_.subscribe(*it_, "right/image", q,
                        image_transport::TransportHints("raw", ros::TransportHints(), pnh));
-  // Counted before synchronisation, so CheckInputs can tell why no pair forms.
-  left_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr&) { ++left_seen_; });
-  right_sub_.registerCallback([this](const sensor_msgs::ImageConstPtr&) { ++right_seen_; });
+  // Each message is counted before the synchroniser sees it (OnImage, OnCameraInfo), so every
+  // image is accounted for and CheckInputs can tell why no pair forms.
+  left_sub_.registerCallback(
+      [this](const sensor_msgs::ImageConstPtr& m) { OnImage(InputAccounting::kLeft, m); });
+  right_sub_.registerCallback(
+      [this](const sensor_msgs::ImageConstPtr& m) { OnImage(InputAccounting::kRight, m); });
   using boost::placeholders::_1;
   using boost::placeholders::_2;
   using boost::placeholders::_3;
   using boost::placeholders::_4;
   if (options_.use_camera_info) {
-    left_info_sub_.subscribe(nh, "left/camera_info", q);
-    right_info_sub_.subscribe(nh, "right/camera_info", q);
-    left_info_sub_.registerCallback(
-        [this](const sensor_msgs::CameraInfoConstPtr&) { ++left_info_seen_; });
-    right_info_sub_.registerCallback(
-        [this](const sensor_msgs::CameraInfoConstPtr&) { ++right_info_seen_; });
+    left_info_sub_.subscribe(input_nh, "left/camera_info", q);
+    right_info_sub_.subscribe(input_nh, "right/camera_info", q);
+    left_info_sub_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
+      OnCameraInfo(InputAccounting::kLeft, m);
+    });
+    right_info_sub_.registerCallback([this](const sensor_msgs::CameraInfoConstPtr& m) {
+      OnCameraInfo(InputAccounting::kRight, m);
+    });
     if (options_.approximate_sync) {
-      approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(
-          ApproxPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
+      approx_sync_ = std::make_unique<message_filters::Synchronizer<ApproxPolicy>>(ApproxPolicy(q));
       approx_sync_->setMaxIntervalDuration(ros::Duration(options_.sync_tolerance));
       approx_sync_->registerCallback(
           boost::bind(&StereoSlamNodelet::StereoCallback, this, _1, _2, _3, _4));
     } else {
-      exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(
-          ExactPolicy(q), left_sub_, left_info_sub_, right_sub_, right_info_sub_);
+      exact_sync_ = std::make_unique<message_filters::Synchronizer<ExactPolicy>>(ExactPolicy(q));
       exact_sync_->registerCallback(
           boost::bind(&StereoSlamNodelet::StereoCallback, this, _1, _2, _3, _4));
+      exact_sync_->registerDropCallback(&StereoSlamNodelet::OnStereoDropped, this);
     }
     NODELET_INFO("pl_slam: waiting for %s, %s and their camera_info (%s, %s)",
                  left_sub_.getTopic().c_str(), right_sub_.getTopic().c_str(),
@@ -364,15 +380,16 @@ void StereoSlamNodelet::onInit() {
     rectifier_ = std::make_shared<StereoInfoRectifier>(left_info, right_info);
     if (options_.approximate_sync) {
       approx_images_sync_ = std::make_unique<message_filters::Synchronizer<ApproxImagesPolicy>>(
-          ApproxImagesPolicy(q), left_sub_, right_sub_);
+          ApproxImagesPolicy(q));
       approx_images_sync_->setMaxIntervalDuration(ros::Duration(options_.sync_tolerance));
       approx_images_sync_->registerCallback(
           boost::bind(&StereoSlamNodelet::ImagesCallback, this, _1, _2));
     } else {
-      exact_images_sync_ = std::make_unique<message_filters::Synchronizer<ExactImagesPolicy>>(
-          ExactImagesPolicy(q), left_sub_, right_sub_);
+      exact_images_sync_ =
+          std::make_unique<message_filters::Synchronizer<ExactImagesPolicy>>(ExactImagesPolicy(q));
       exact_images_sync_->registerCallback(
           boost::bind(&StereoSlamNodelet::ImagesCallback, this, _1, _2));
+      exact_images_sync_->registerDropCallback(&StereoSlamNodelet::OnImagesDropped, this);
     }
     NODELET_INFO("pl_slam: waiting for %s and %s; calibration from parameters: %s",
                  left_sub_.getTopic().c_str(), right_sub_.getTopic().c_str(),
@@ -380,6 +397,9 @@ void StereoSlamNodelet::onInit() {
   }
   input_check_timer_ = pnh.createWallTimer(ros::WallDuration(options_.input_warning_period),
                                            &StereoSlamNodelet::CheckInputs, this);
+  input_thread_ = std::thread([this] {
+    while (!input_stop_) input_queue_.callAvailable(ros::WallDuration(0.05));
+  });
 }
 
 void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Header& header) {
@@ -388,9 +408,11 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     result = system_->Process(frame);
   } catch (const std::exception& e) {
     NODELET_ERROR_THROTTLE(5.0, "pl_slam: frame %d failed: %s", frame.index, e.what());
+    accounting_->Rejected();
     return;
   }
   ++frames_processed_;
+  accounting_->Processed();
   if (loops_rebase_) {
     loops_offset_ = result.loops;
     loops_rebase_ = false;
@@ -449,8 +471,7 @@ void StereoSlamNodelet::ResetSystemLocked() {
   published_map_version_ = UINT64_MAX;
   // A new map starts its count of frames, drops, refusals and loops.
   frames_processed_ = 0;
-  dropped_ = 0;
-  rejected_ = 0;
+  accounting_->Restart();
   loops_rebase_ = true;
   PublishClearedMapLocked();
   if (!system_) return;

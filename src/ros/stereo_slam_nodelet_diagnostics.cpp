@@ -66,9 +66,17 @@ void StereoSlamNodelet::DiagnoseInput(diagnostic_updater::DiagnosticStatusWrappe
   stat.add("rate (Hz)", rate);
   stat.add("expected rate (Hz)", expected);
   stat.add("pairs received", pairs);
-  stat.add("frames processed", frames_processed_);
-  stat.add("frames dropped (worker behind)", dropped_.load());
-  stat.add("frames rejected (bad input)", rejected_.load());
+  const InputCounts c = accounting_->counts();
+  stat.add("frames processed", c.processed);
+  stat.add("frames dropped (worker behind)", c.dropped);
+  stat.add("frames rejected (bad input)", c.rejected);
+  stat.add("left images received", c.received[InputAccounting::kLeft]);
+  stat.add("right images received", c.received[InputAccounting::kRight]);
+  stat.add("left images unpaired", c.unpaired[InputAccounting::kLeft]);
+  stat.add("right images unpaired", c.unpaired[InputAccounting::kRight]);
+  stat.add("left images waiting", c.waiting[InputAccounting::kLeft]);
+  stat.add("right images waiting", c.waiting[InputAccounting::kRight]);
+  stat.add("pairs in progress", c.in_progress);
 }
 
 void StereoSlamNodelet::DiagnoseTracking(diagnostic_updater::DiagnosticStatusWrapper& stat) {

@@ -1,6 +1,7 @@
-// StereoSlamNodelet, input side: stereo pairs from the synchronised subscribers, calibration
-// from camera_info (rectification maps), validation of sizes, encodings and stamps, the
-// one-frame mailbox and the worker thread that rectifies and feeds the pipeline.
+// StereoSlamNodelet, input side: the subscriber callbacks that count every image before the
+// synchroniser sees it, stereo pairs from the synchroniser, calibration from camera_info
+// (rectification maps), validation of sizes, encodings and stamps, the one-frame mailbox and
+// the worker thread that rectifies and feeds the pipeline.
 #include <cmath>
 #include <iomanip>
 #include <sstream>
@@ -14,7 +15,7 @@ namespace pl_slam {
 namespace ros_layer {
 
 void StereoSlamNodelet::RejectInput(const std::string& kind, const std::string& message) {
-  ++rejected_;
+  accounting_->Rejected();
   const ros::WallTime now = ros::WallTime::now();
   {
     std::lock_guard<std::mutex> lock(warn_mutex_);
@@ -26,7 +27,49 @@ void StereoSlamNodelet::RejectInput(const std::string& kind, const std::string& 
   NODELET_WARN(
       "pl_slam: %s (%u pairs refused so far; repeats of this warning are held back "
       "for %.1f s)",
-      message.c_str(), rejected_.load(), options_.input_warning_period);
+      message.c_str(), accounting_->counts().rejected, options_.input_warning_period);
+}
+
+void StereoSlamNodelet::OnImage(InputAccounting::Camera camera,
+                                const sensor_msgs::ImageConstPtr& image) {
+  const bool left = camera == InputAccounting::kLeft;
+  ++(left ? left_seen_ : right_seen_);
+  accounting_->Received(camera, image.get(), ToNanoseconds(image->header.stamp));
+  // The synchronisers' slots: (left image, left info, right image, right info) or (left, right).
+  if (exact_sync_) {
+    left ? exact_sync_->add<0>(image) : exact_sync_->add<2>(image);
+  } else if (approx_sync_) {
+    left ? approx_sync_->add<0>(image) : approx_sync_->add<2>(image);
+  } else if (exact_images_sync_) {
+    left ? exact_images_sync_->add<0>(image) : exact_images_sync_->add<1>(image);
+  } else if (approx_images_sync_) {
+    left ? approx_images_sync_->add<0>(image) : approx_images_sync_->add<1>(image);
+  }
+  accounting_->AfterSync(camera);
+}
+
+void StereoSlamNodelet::OnCameraInfo(InputAccounting::Camera camera,
+                                     const sensor_msgs::CameraInfoConstPtr& info) {
+  const bool left = camera == InputAccounting::kLeft;
+  ++(left ? left_info_seen_ : right_info_seen_);
+  if (exact_sync_) {
+    left ? exact_sync_->add<1>(info) : exact_sync_->add<3>(info);
+  } else if (approx_sync_) {
+    left ? approx_sync_->add<1>(info) : approx_sync_->add<3>(info);
+  }
+}
+
+void StereoSlamNodelet::OnStereoDropped(const sensor_msgs::ImageConstPtr& left,
+                                        const sensor_msgs::CameraInfoConstPtr&,
+                                        const sensor_msgs::ImageConstPtr& right,
+                                        const sensor_msgs::CameraInfoConstPtr&) {
+  OnImagesDropped(left, right);
+}
+
+void StereoSlamNodelet::OnImagesDropped(const sensor_msgs::ImageConstPtr& left,
+                                        const sensor_msgs::ImageConstPtr& right) {
+  accounting_->Unpaired(InputAccounting::kLeft, left.get());
+  accounting_->Unpaired(InputAccounting::kRight, right.get());
 }
 
 void StereoSlamNodelet::CheckInputs(const ros::WallTimerEvent&) {
@@ -63,6 +106,7 @@ void StereoSlamNodelet::StereoCallback(const sensor_msgs::ImageConstPtr& left,
                                        const sensor_msgs::ImageConstPtr& right,
                                        const sensor_msgs::CameraInfoConstPtr& right_info) {
   ++pairs_seen_;
+  accounting_->Paired(left.get(), right.get());
   std::shared_ptr<const StereoInfoRectifier> rectifier;
   std::string error;
   {
@@ -98,6 +142,7 @@ void StereoSlamNodelet::StereoCallback(const sensor_msgs::ImageConstPtr& left,
 void StereoSlamNodelet::ImagesCallback(const sensor_msgs::ImageConstPtr& left,
                                        const sensor_msgs::ImageConstPtr& right) {
   ++pairs_seen_;
+  accounting_->Paired(left.get(), right.get());
   std::shared_ptr<const StereoInfoRectifier> rectifier;
   {
     std::lock_guard<std::mutex> lock(input_mutex_);
@@ -134,7 +179,7 @@ void StereoSlamNodelet::Enqueue(const sensor_msgs::Image& left, const sensor_msg
   p.rectifier = rectifier;
   {
     std::lock_guard<std::mutex> lock(mailbox_mutex_);
-    if (mailbox_) ++dropped_;  // the worker is behind: the newest frame replaces the old one
+    if (mailbox_) accounting_->Dropped();  // the worker is behind: the newest pair replaces it
     mailbox_ = std::move(p);
   }
   mailbox_cv_.notify_one();
@@ -178,6 +223,7 @@ void StereoSlamNodelet::WorkerLoop() {
         StartSystemLocked(camera);
       } catch (const std::exception& e) {
         NODELET_ERROR_THROTTLE(5.0, "pl_slam: cannot start the pipeline: %s", e.what());
+        accounting_->Rejected();
         continue;
       }
     }

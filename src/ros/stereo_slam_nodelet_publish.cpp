@@ -116,9 +116,18 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
   status.header.frame_id = options_.map_frame;
   status.state = static_cast<uint8_t>(result.state);
   status.state_name = TrackingStateName(result.state);
-  status.frame_index = frames_processed_;
-  status.frames_dropped = dropped_.load();
-  status.frames_rejected = rejected_.load();
+  // One snapshot, so the accounting identity holds within the message.
+  const InputCounts counts = accounting_->counts();
+  status.frame_index = counts.processed;
+  status.frames_dropped = counts.dropped;
+  status.frames_rejected = counts.rejected;
+  status.left_received = counts.received[InputAccounting::kLeft];
+  status.right_received = counts.received[InputAccounting::kRight];
+  status.left_unpaired = counts.unpaired[InputAccounting::kLeft];
+  status.right_unpaired = counts.unpaired[InputAccounting::kRight];
+  status.left_waiting = counts.waiting[InputAccounting::kLeft];
+  status.right_waiting = counts.waiting[InputAccounting::kRight];
+  status.pairs_in_progress = counts.in_progress;
   status.points_detected = static_cast<uint32_t>(result.points_detected);
   status.lines_detected = static_cast<uint32_t>(result.lines_detected);
   status.point_inliers = static_cast<uint32_t>(result.point_inliers);

@@ -29,7 +29,7 @@ bool StereoSlamNodelet::OnSaveTrajectory(pl_slam::SaveTrajectory::Request& req,
     res.poses = static_cast<uint32_t>(traj.size());
     res.message = "wrote " + std::to_string(traj.size()) + " poses to " + req.path +
                   " (frames processed " + std::to_string(processed) + ", dropped " +
-                  std::to_string(dropped_.load()) + ")";
+                  std::to_string(accounting_ ? accounting_->counts().dropped : 0) + ")";
     NODELET_INFO("pl_slam: %s", res.message.c_str());
   } catch (const std::exception& e) {
     res.success = false;

@@ -18,6 +18,7 @@
 #include <message_filters/synchronizer.h>
 #include <nav_msgs/Path.h>
 #include <nodelet/nodelet.h>
+#include <ros/callback_queue.h>
 #include <ros/ros.h>
 #include <sensor_msgs/CameraInfo.h>
 #include <sensor_msgs/Image.h>
@@ -31,6 +32,7 @@
 #include "pl_slam/SaveTrajectory.h"
 #include "pl_slam/io/stereo_frame.h"
 #include "pl_slam/ros/camera_info_rectifier.h"
+#include "pl_slam/ros/input_accounting.h"
 #include "pl_slam/system/slam_system.h"
 
 namespace pl_slam {
@@ -45,7 +47,12 @@ struct NodeletOptions {
   bool publish_tf = true;                ///< broadcast map->odom->base_link
   bool approximate_sync = false;         ///< ApproximateTime instead of ExactTime
   double sync_tolerance = 0.005;         ///< max stamp difference (s) with approximate sync
-  int queue_size = 5;                    ///< subscriber and synchroniser queue length
+  /// Subscriber and synchroniser queue length. The subscribers run on their own thread that
+  /// only counts, pairs and copies images, and the worker keeps just the newest pair, so this
+  /// only has to absorb scheduling hiccups and the stamp lag between the two cameras: 30 is
+  /// a second at 30 Hz. Images lost in roscpp's own queue (only if that thread stalls for this
+  /// many images) never reach the nodelet and cannot be counted.
+  int queue_size = 30;
   /// Calibration from the left/right camera_info topics (raw images are rectified from K, D,
   /// R, P); false = no camera_info subscription, calibration from the camera.* keys.
   bool use_camera_info = true;
@@ -97,7 +104,8 @@ OptionTable MakeNodeletOptionTable(NodeletOptions* options);
 /// Bad input never stops the nodelet: a pair with an unsupported encoding, sizes that differ
 /// or an unusable camera_info is refused with a throttled warning (one per kind of problem
 /// every input_warning_period s) and counted in status.frames_rejected; images that never
-/// form a synchronised pair (no camera_info, stamps that differ) are reported as often. A stamp
+/// form a synchronised pair (no camera_info, stamps that differ) are reported as often. Every
+/// image received is accounted for (InputAccounting, status.left_received ...). A stamp
 /// older than the previous frame's is handled by backwards_stamp_policy (a restart keeps the map
 /// in localisation-only mode); a repeated stamp is skipped.
 class StereoSlamNodelet : public nodelet::Nodelet {
@@ -114,11 +122,21 @@ class StereoSlamNodelet : public nodelet::Nodelet {
                       const sensor_msgs::CameraInfoConstPtr& right_info);
   void ImagesCallback(const sensor_msgs::ImageConstPtr& left,
                       const sensor_msgs::ImageConstPtr& right);
+  /// Subscriber callbacks (input thread): count the message, then hand it to the synchroniser.
+  void OnImage(InputAccounting::Camera camera, const sensor_msgs::ImageConstPtr& image);
+  void OnCameraInfo(InputAccounting::Camera camera, const sensor_msgs::CameraInfoConstPtr& info);
+  /// ExactTime's drop callbacks: a set discarded without all its messages.
+  void OnStereoDropped(const sensor_msgs::ImageConstPtr& left,
+                       const sensor_msgs::CameraInfoConstPtr& left_info,
+                       const sensor_msgs::ImageConstPtr& right,
+                       const sensor_msgs::CameraInfoConstPtr& right_info);
+  void OnImagesDropped(const sensor_msgs::ImageConstPtr& left,
+                       const sensor_msgs::ImageConstPtr& right);
   /// Converts a synchronised pair and posts it to the worker (or refuses it with a warning).
   void Enqueue(const sensor_msgs::Image& left, const sensor_msgs::Image& right,
                const std::shared_ptr<const StereoInfoRectifier>& rectifier);
   /// Warns about bad input, at most once per `kind` every input_warning_period, and counts
-  /// the rejection.
+  /// the rejection of the pair in progress.
   void RejectInput(const std::string& kind, const std::string& message);
   /// Periodic check: images arriving but no synchronised pair formed (missing camera_info,
   /// unsynchronised stamps, a topic not remapped).
@@ -166,6 +184,12 @@ class StereoSlamNodelet : public nodelet::Nodelet {
       message_filters::sync_policies::ApproximateTime<sensor_msgs::Image, sensor_msgs::Image>;
 
   NodeletOptions options_;
+  // The subscribers' callbacks run on input_thread_ from input_queue_, never behind a service
+  // call or a timer of the nodelet's own queue.
+  ros::CallbackQueue input_queue_;
+  std::thread input_thread_;
+  std::atomic<bool> input_stop_{false};
+  std::unique_ptr<InputAccounting> accounting_;
   std::unique_ptr<image_transport::ImageTransport> it_;
   image_transport::SubscriberFilter left_sub_, right_sub_;
   message_filters::Subscriber<sensor_msgs::CameraInfo> left_info_sub_, right_info_sub_;
@@ -216,8 +240,6 @@ class StereoSlamNodelet : public nodelet::Nodelet {
   };
   std::optional<Pending> mailbox_;
   std::atomic<bool> stop_{false};
-  std::atomic<uint32_t> dropped_{0};
-  std::atomic<uint32_t> rejected_{0};
   std::thread worker_;
 
   // Owned by the worker thread; services take system_mutex_ to reach it.
