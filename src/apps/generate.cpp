@@ -16,28 +16,32 @@ namespace {
 
 constexpr char kUsage[] =
     "usage: pl_slam_generate --scene NAME [--euroc DIR] [--bag FILE] [options]\n"
-    "  --scene NAME          room, corridor, fast_turn, or a low-texture scene: lowtex_corner,\n"
+    "  --scene NAME          room, corridor, fast_turn, a low-texture scene (lowtex_corner,\n"
     "                        lowtex_straight, lowtex_spin, lowtex_doorway, lowtex_wall,\n"
-    "                        lowtex_office"
+    "                        lowtex_office) or a street scene (street_straight, street_curve,\n"
+    "                        street_junction, street_avenue, street_s_bend: a KITTI-like car\n"
+    "                        camera, 1241x376 px, focal 718.856 px, baseline 0.54 m, 10 Hz)\n"
     "  --euroc DIR           write an EuRoC ASL folder (DIR/mav0/...)\n"
     "  --bag FILE            write a rosbag (/cam0/image_raw, /cam1/image_raw, camera_info,\n"
     "                        /ground_truth/pose)\n"
     "  --frames N            number of frames (default: the scene's own length)\n"
     "  --loops K             room: go round the loop K times (default 1; length scales)\n"
-    "  --rate HZ             frame rate (default 20)\n"
+    "  --rate HZ             frame rate (default 20; street scenes 10)\n"
     "  --noise SIGMA         image noise, grey levels (default 2)\n"
     "  --seed S              image noise seed (default 1)\n"
-    "  --world-seed S        world seed: textures and, for lowtex scenes, layout (default 7)\n"
+    "  --world-seed S        world seed: textures and, for lowtex and street scenes, layout\n"
+    "                        (default 7)\n"
     "  --bare                lowtex scenes: the bare variant (no posters, floor tiles,\n"
     "                        ceiling grid or lights, wall seams)\n"
-    "  --blur SIGMA          Gaussian blur in pixels (default: 0.6 for lowtex scenes, else 0)\n"
-    "  --vignetting F        corner darkening fraction (default: 0.08 lowtex, else 0)\n"
+    "  --blur SIGMA          Gaussian blur in pixels (default: 0.6 for lowtex and street\n"
+    "                        scenes, else 0)\n"
+    "  --vignetting F        corner darkening fraction (default: 0.08 lowtex and street,\n"
+    "                        else 0)\n"
     "  --exposure PRESET     normal (default), dim (gain 0.45) or bright (gain 1.4, clips)\n"
     "  --edges FILE          also write the visible ground-truth structural edges of every\n"
     "                        left image as CSV: frame,stamp_ns,edge,u0,v0,u1,v1 (pixels)\n"
     "  --exposure-change     vary exposure over the sequence\n"
-    "  --baseline M          stereo baseline in metres (default 0.11; smaller = far-scene\n"
-    "                        disparities, like a car's camera on a road)\n"
+    "  --baseline M          stereo baseline in metres (default 0.11, street scenes 0.54)\n"
     "  --start-time S        first timestamp in seconds (default 1000)\n";
 
 int Run(int argc, char** argv) {
@@ -54,8 +58,8 @@ int Run(int argc, char** argv) {
     std::cerr << kUsage;
     return 2;
   }
-  pl_slam::sim::SequenceOptions opt;
-  opt.scene = pl_slam::sim::ParseSceneKind(cl.Get("scene", ""));
+  pl_slam::sim::SequenceOptions opt =
+      pl_slam::sim::DefaultSequenceOptions(pl_slam::sim::ParseSceneKind(cl.Get("scene", "")));
   opt.num_frames = cl.GetInt("frames", opt.num_frames);
   opt.loops = cl.GetInt("loops", opt.loops);
   opt.rate_hz = cl.GetDouble("rate", opt.rate_hz);

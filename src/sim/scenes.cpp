@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "pl_slam/sim/lowtex_scenes.h"
+#include "pl_slam/sim/street_scenes.h"
 #include "pl_slam/util/error.h"
 
 namespace pl_slam::sim {
@@ -189,9 +190,11 @@ SE3 RoomLoopPose(double theta) {
 
 const std::vector<SceneKind>& AllSceneKinds() {
   static const std::vector<SceneKind> kinds = {
-      SceneKind::kRoom,          SceneKind::kCorridor,       SceneKind::kFastTurn,
-      SceneKind::kLowtexCorner,  SceneKind::kLowtexStraight, SceneKind::kLowtexSpin,
-      SceneKind::kLowtexDoorway, SceneKind::kLowtexWall,     SceneKind::kLowtexOffice};
+      SceneKind::kRoom,           SceneKind::kCorridor,       SceneKind::kFastTurn,
+      SceneKind::kLowtexCorner,   SceneKind::kLowtexStraight, SceneKind::kLowtexSpin,
+      SceneKind::kLowtexDoorway,  SceneKind::kLowtexWall,     SceneKind::kLowtexOffice,
+      SceneKind::kStreetStraight, SceneKind::kStreetCurve,    SceneKind::kStreetJunction,
+      SceneKind::kStreetAvenue,   SceneKind::kStreetSBend};
   return kinds;
 }
 
@@ -224,6 +227,16 @@ std::string SceneKindName(SceneKind kind) {
       return "lowtex_wall";
     case SceneKind::kLowtexOffice:
       return "lowtex_office";
+    case SceneKind::kStreetStraight:
+      return "street_straight";
+    case SceneKind::kStreetCurve:
+      return "street_curve";
+    case SceneKind::kStreetJunction:
+      return "street_junction";
+    case SceneKind::kStreetAvenue:
+      return "street_avenue";
+    case SceneKind::kStreetSBend:
+      return "street_s_bend";
   }
   return "unknown";
 }
@@ -237,6 +250,7 @@ int DefaultNumFrames(SceneKind kind) {
     case SceneKind::kFastTurn:
       return 200;
     default:
+      if (IsStreetScene(kind)) return StreetDefaultNumFrames(kind, 7, kStreetRateHz);
       return LowtexDefaultNumFrames(kind, 7, 20.0);
   }
 }
@@ -288,6 +302,9 @@ Scene BuildScene(SceneKind kind, int num_frames, double rate_hz, double start_ti
   }
   if (IsLowtexScene(kind)) {
     return BuildLowtexScene(kind, num_frames, rate_hz, start_time_s, world_seed, bare);
+  }
+  if (IsStreetScene(kind)) {
+    return BuildStreetScene(kind, num_frames, rate_hz, start_time_s, world_seed);
   }
   loops = std::max(1, loops);
   const int n =

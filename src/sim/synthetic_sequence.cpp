@@ -16,6 +16,7 @@
 
 #include "pl_slam/sim/lowtex_scenes.h"
 #include "pl_slam/sim/procedural_texture.h"
+#include "pl_slam/sim/street_scenes.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 
@@ -146,12 +147,25 @@ std::string SequenceOptions::Validate() const {
 
 double SequenceOptions::EffectiveBlurSigma() const {
   if (blur_sigma >= 0.0) return blur_sigma;
-  return IsLowtexScene(scene) ? 0.6 : 0.0;
+  return IsLowtexScene(scene) || IsStreetScene(scene) ? 0.6 : 0.0;
 }
 
 double SequenceOptions::EffectiveVignetting() const {
   if (vignetting >= 0.0) return vignetting;
-  return IsLowtexScene(scene) ? 0.08 : 0.0;
+  return IsLowtexScene(scene) || IsStreetScene(scene) ? 0.08 : 0.0;
+}
+
+SequenceOptions DefaultSequenceOptions(SceneKind kind) {
+  SequenceOptions o;
+  o.scene = kind;
+  if (IsStreetScene(kind)) {
+    o.width = kStreetImageWidth;
+    o.height = kStreetImageHeight;
+    o.focal = kStreetFocal;
+    o.baseline = kStreetBaseline;
+    o.rate_hz = kStreetRateHz;
+  }
+  return o;
 }
 
 void ApplyExposurePreset(const std::string& preset, SequenceOptions* options) {
@@ -246,6 +260,9 @@ std::string SyntheticSequence::Describe() const {
      << options_.height << ", seed " << options_.seed;
   if (!custom_world_ && IsLowtexScene(options_.scene)) {
     os << ", world seed " << options_.world_seed << (options_.bare ? ", bare" : ", textured");
+  }
+  if (!custom_world_ && IsStreetScene(options_.scene)) {
+    os << ", world seed " << options_.world_seed;
   }
   return os.str();
 }

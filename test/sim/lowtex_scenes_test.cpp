@@ -99,7 +99,7 @@ TEST(LowtexSceneKindTest, NamesParseAndAreLowtex) {
   EXPECT_FALSE(IsLowtexScene(SceneKind::kRoom));
   EXPECT_FALSE(IsLowtexScene(SceneKind::kCorridor));
   EXPECT_EQ(ParseSceneKind("lowtex_spin"), SceneKind::kLowtexSpin);
-  EXPECT_EQ(AllSceneKinds().size(), 9u);
+  EXPECT_EQ(AllSceneKinds().size(), 14u);
 }
 
 TEST_F(LowtexTest, LengthsAreTheWholeWalk) {

@@ -41,6 +41,23 @@
 //   lowtex_office    plain room with three shelf units seen head-on (approached, then passed
 //                    sideways at 1.8 m; textured: books), a desk, a whiteboard the walk turns
 //                    to at the end.
+//
+// The street family (street_scenes.h): a car driving city streets at 8-15 m/s with a
+// KITTI-like camera (1.65 m high, 0.54 m baseline, 1241x376 px, focal 718.856 px, 10 Hz; the
+// sequences' defaults, see DefaultSequenceOptions): building fronts with windows, doors and
+// shop fronts, parked cars, lamp posts, trees, lane markings, a plain sky. The world seed
+// jitters building widths, heights and setbacks, parked cars, the speed and the bends. The
+// default length is the whole drive (seed-dependent, 324-370 frames at 10 Hz), and the
+// sequences default to the lowtex family's blur and vignetting.
+//   street_straight  a straight street, one lane each way with parking strips, 10-13 m/s.
+//   street_curve     60-90 m straight, then a long bend of 60-90 degrees (left or right,
+//                    radius 120-180 m), then straight; 10-12.5 m/s.
+//   street_junction  a 90-degree turn (left, radius 11-14 m, or right, 7.5-9 m) at a four-way
+//                    junction ~14 s in, slowing from 10-12.5 m/s to 5-7 m/s for it.
+//   street_avenue    a wide straight avenue: two lanes each way, tree-lined pavements, wider
+//                    and taller buildings with sparser, larger windows; 11-14 m/s.
+//   street_s_bend    two opposite bends of 35-50 degrees (radius 90-130 m) 30-60 m apart,
+//                    narrower buildings; 9-12 m/s.
 #pragma once
 
 #include <Eigen/Core>
@@ -67,6 +84,11 @@ enum class SceneKind {
   kLowtexDoorway,
   kLowtexWall,
   kLowtexOffice,
+  kStreetStraight,
+  kStreetCurve,
+  kStreetJunction,
+  kStreetAvenue,
+  kStreetSBend,
 };
 
 /// Every scene kind, in declaration order.
@@ -80,7 +102,8 @@ SceneKind ParseSceneKind(const std::string& name);
 std::string SceneKindName(SceneKind kind);
 
 /// Default sequence length (frames) of a scene. Lowtex scenes: the whole walk at 20 Hz in the
-/// layout of world seed 7 (other seeds and rates: LowtexDefaultNumFrames).
+/// layout of world seed 7 (other seeds and rates: LowtexDefaultNumFrames); street scenes: the
+/// whole drive at 10 Hz in the layout of world seed 7 (StreetDefaultNumFrames).
 int DefaultNumFrames(SceneKind kind);
 
 /// A world and the trajectory of the left camera through it.

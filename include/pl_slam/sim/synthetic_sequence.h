@@ -36,11 +36,12 @@ struct SequenceOptions {
   int edge_supersampling = 4;               ///< k x k rays per pixel on occlusion edges (1 = off)
   bool bare = false;  ///< lowtex scenes: the bare variant (no posters, tiles, grid, lights, seams)
   /// Gaussian blur (optics) std in pixels, applied to the radiance before vignetting, gain
-  /// and noise; 0 = none; < 0 = the scene's default (0.6 for lowtex scenes, else none).
+  /// and noise; 0 = none; < 0 = the scene's default (0.6 for lowtex and street scenes, else
+  /// none).
   double blur_sigma = -1.0;
   /// Vignetting: brightness falls as 1 - vignetting * (r / r_corner)^2 with the distance r
   /// from the principal point (the image corners lose this fraction); 0 = none; < 0 = the
-  /// scene's default (0.08 for lowtex scenes, else none).
+  /// scene's default (0.08 for lowtex and street scenes, else none).
   double vignetting = -1.0;
   /// Constant exposure gain (a dim or bright camera; e.g. dim 0.45, bright 1.4), applied
   /// together with exposure_change's: grey = gain * radiance + offset, saturating at 0 and 255.
@@ -60,6 +61,11 @@ struct SequenceOptions {
   /// The effective configuration, one "key: value" per line, for logs.
   std::string ToString() const;
 };
+
+/// The options a scene is meant to be rendered with: SequenceOptions() for `kind`, with the
+/// street scenes' car camera (street_scenes.h: 1241x376 px, focal 718.856 px, baseline
+/// 0.54 m, 10 Hz) instead of the EuRoC-like defaults.
+SequenceOptions DefaultSequenceOptions(SceneKind kind);
 
 /// Sets exposure_gain and exposure_offset from a preset name: "normal" (1, 0), "dim"
 /// (0.45, 0: underexposed, compressed contrast) or "bright" (1.4, 0: overexposed, light
