@@ -13,9 +13,10 @@ loop closing (loop.enabled=false), slam = everything. --sequential runs mapping 
 (deterministic accuracy); --realtime feeds frames at the recording's rate (live-like timing
 with mapping in its own thread).
 
-Scene families (--family lowtex): every layout of the family x {textured, bare} x world
-seeds (--seeds, default 1,2,3), rendered with pl_slam_generate on first use, run with each
-mode in --modes, mapping in line (deterministic; --threaded to run it in its own thread).
+Scene families (--family lowtex, --family street): every layout of the family x its variants
+(lowtex: textured, bare; street: default) x world seeds (--seeds, default 1,2,3), rendered
+with pl_slam_generate on first use, run with each mode in --modes, mapping in line
+(deterministic; --threaded to run it in its own thread).
 One row per run: frames, frames with a pose, lost frames (frames.txt stamps without a
 trajectory.tum pose) and the longest run of them, ground-truth path length, SE(3)-aligned ATE
 RMSE over the frames with a pose (m and % of the path), translation and rotation drift (RPE
@@ -23,6 +24,7 @@ per metre over the longest segment evaluated), then median ATE and lost frames p
 apart (held-out layouts are for checking, never for tuning):
 
     scripts/benchmark_offline.py --family lowtex [--seeds 1,2,3] [--family-variants textured,bare]
+    scripts/benchmark_offline.py --family street [--seeds 1,2,3] [--modes points_lines]
                                  [--layouts NAME,...] [--max-frames N] [--jobs J] [--out DIR]
                                  [--generate-args '--exposure dim'] [--set K=V,...]
 
@@ -60,11 +62,20 @@ REAL = [("euroc_mh01", os.path.join(SHARED, "euroc_mh01_f100-249")),
 
 
 # Scene families: tuning layouts (tune the tracker on these) and held-out layouts (check on
-# these, never tune on them).
+# these, never tune on them); the variants each layout is rendered in (name: extra
+# pl_slam_generate flags; all of them unless --family-variants picks some); pl_slam_evaluate
+# flags for the family's scale (drive-length RPE segments for the streets).
 FAMILIES = {
     "lowtex": {
         "tuning": ["lowtex_corner", "lowtex_straight", "lowtex_spin", "lowtex_wall"],
         "held_out": ["lowtex_doorway", "lowtex_office"],
+        "variants": {"textured": [], "bare": ["--bare"]},
+    },
+    "street": {
+        "tuning": ["street_straight", "street_curve", "street_junction"],
+        "held_out": ["street_avenue", "street_s_bend"],
+        "variants": {"default": []},
+        "evaluate_args": ["--rpe-lengths", "10,50,100"],
     },
 }
 
@@ -220,7 +231,7 @@ def gt_path_length(path):
     return length
 
 
-def family_run(layout, variant, seed, mode, data, out, overrides):
+def family_run(layout, variant, seed, mode, data, out, overrides, evaluate_args=()):
     """One pl_slam_offline run of a family sequence; the row of the family table."""
     name = "%s_%s_s%d" % (layout, variant, seed)
     d = os.path.join(out, "runs", mode, name)
@@ -228,7 +239,7 @@ def family_run(layout, variant, seed, mode, data, out, overrides):
     row = {"layout": layout, "variant": variant, "seed": seed, "mode": mode, "name": name,
            "frames": 0, "tracked": 0, "lost": 0, "gap": 0, "length": float("nan"),
            "ate": float("nan"), "ate_pct": float("nan"), "rot_drift": float("nan"),
-           "drift_pct": float("nan"), "failed": ""}
+           "drift_pct": float("nan"), "sim3_scale": float("nan"), "failed": ""}
     cmd = [os.path.join(BIN, "pl_slam_offline"), data, "--out", d, "--quiet", "--mode", mode]
     if overrides:
         cmd += ["--set", overrides]
@@ -254,8 +265,8 @@ def family_run(layout, variant, seed, mode, data, out, overrides):
         run([os.path.join(BIN, "pl_slam_evaluate"), "--est", os.path.join(d, "trajectory.tum"),
              "--gt", os.path.join(d, "groundtruth.tum"), "--frame-times", os.path.join(d, "frames.txt"),
              "--align", "se3", "--json", os.path.join(d, "eval.json"),
-             "--plot", os.path.join(d, "plot.png"), "--name", "%s (%s)" % (name, mode)],
-            os.path.join(d, "eval.log"))
+             "--plot", os.path.join(d, "plot.png"), "--name", "%s (%s)" % (name, mode)]
+            + list(evaluate_args), os.path.join(d, "eval.log"))
         with open(os.path.join(d, "eval.json")) as f:
             ev = json.load(f)
     except (RuntimeError, ValueError) as e:
@@ -264,6 +275,8 @@ def family_run(layout, variant, seed, mode, data, out, overrides):
     row["length"] = gt_path_length(os.path.join(d, "groundtruth.tum"))
     row["ate"] = num(ev["ate"]["translation_m"]["rmse"])
     row["ate_pct"] = 100.0 * row["ate"] / row["length"] if row["length"] > 0 else float("nan")
+    if ev.get("ate_sim3"):
+        row["sim3_scale"] = num(ev["ate_sim3"].get("scale"))
     drift = [r for r in ev["rpe_distance"] if r["segments"] > 0]
     if drift:
         row["rot_drift"] = num(drift[-1].get("rotation_deg_per_m"))
@@ -283,7 +296,10 @@ def run_family(args):
         keep = set(args.layouts.split(","))
         layouts = [(l, s) for l, s in layouts if l in keep]
     seeds = [int(x) for x in args.seeds.split(",") if x]
-    variants = [v for v in args.family_variants.split(",") if v]
+    variants = [v for v in args.family_variants.split(",") if v] or list(family["variants"])
+    for v in variants:
+        if v not in family["variants"]:
+            raise SystemExit("family %s has no variant %s (%s)" % (args.family, v, ", ".join(family["variants"])))
     modes = [m for m in args.modes.split(",") if m]
     out = args.out if args.out_given else os.path.join(ROOT, "output", "bench_" + args.family)
     os.makedirs(out, exist_ok=True)
@@ -311,10 +327,7 @@ def run_family(args):
             return
         cmd = [os.path.join(BIN, "pl_slam_generate"), "--scene", layout, "--euroc", data,
                "--world-seed", str(seed), "--seed", str(seed)]
-        if variant == "bare":
-            cmd.append("--bare")
-        elif variant != "textured":
-            raise RuntimeError("unknown variant %s (textured, bare)" % variant)
+        cmd += family["variants"][variant]
         if args.max_frames:
             cmd += ["--frames", str(args.max_frames)]
         cmd += args.generate_args.split()
@@ -329,10 +342,11 @@ def run_family(args):
     print("running %d runs (%s) ..." % (len(jobs), overrides or "default options"), flush=True)
 
     def one(job):
-        row = family_run(job[0], job[1], job[2], job[3], job[4], out, overrides)
-        print("  %-32s %-12s lost %3d/%3d  ATE %.3f m%s" % (row["name"], row["mode"], row["lost"], row["frames"],
-                                                          row["ate"], ("  FAILED " + row["failed"]) if row["failed"] else ""),
-              flush=True)
+        row = family_run(job[0], job[1], job[2], job[3], job[4], out, overrides,
+                         family.get("evaluate_args", ()))
+        print("  %-32s %-12s lost %3d/%3d  ATE %.3f m  Sim3 scale %.4f%s" % (
+            row["name"], row["mode"], row["lost"], row["frames"], row["ate"], row["sim3_scale"],
+            ("  FAILED " + row["failed"]) if row["failed"] else ""), flush=True)
         return row
 
     with concurrent.futures.ThreadPoolExecutor(max_workers=args.jobs) as pool:
@@ -360,7 +374,7 @@ def family_tables(rows, layouts, variants, modes, args, overrides):
     lines = []
     lines.append("| set | layout | variant | seed | mode | frames | tracked | lost | longest gap | path m | ATE m | ATE % path | drift % | rot drift deg/m |")
     lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for r in sorted(rows, key=lambda r: (r["set"] != "tuning", r["layout"], r["variant"] != "textured", r["seed"], r["mode"])):
+    for r in sorted(rows, key=lambda r: (r["set"] != "tuning", r["layout"], variants.index(r["variant"]), r["seed"], r["mode"])):
         if r["failed"]:
             lines.append("| %s | %s | %s | %d | %s | %d | %d | %d | %d | - | FAILED: %s | | | |" % (
                 r["set"], r["layout"], r["variant"], r["seed"], r["mode"], r["frames"], r["tracked"],
@@ -402,7 +416,9 @@ def main():
     ap.add_argument("--sequential", action="store_true", help="mapping in line (deterministic)")
     ap.add_argument("--family", choices=sorted(FAMILIES), help="run a scene family instead (see above)")
     ap.add_argument("--seeds", default="1,2,3", help="family: world seeds")
-    ap.add_argument("--family-variants", default="textured,bare", help="family: textured, bare")
+    ap.add_argument("--family-variants", default="",
+                    help="family: variants to render (default all the family declares; lowtex: "
+                         "textured, bare; street: default)")
     ap.add_argument("--layouts", default="", help="family: only these layouts")
     ap.add_argument("--max-frames", type=int, default=0, help="family: cap every sequence (0 = whole walk)")
     ap.add_argument("--jobs", type=int, default=1, help="family: renders / runs at a time")
