@@ -120,12 +120,13 @@ class TimingLog {
     rows_ << std::fixed;
   }
   void Add(int index, double stamp, const pl_slam::FrameResult& r) {
-    // index,stamp,state,points,lines,point_inliers,line_inliers,total_ms then stage=ms pairs;
-    // stage names are identifiers (no commas or '=').
+    // The kFixed columns (the header's, total_ms last) then stage=ms pairs; stage names are
+    // identifiers (no commas or '=').
     rows_ << index << "," << std::setprecision(9) << stamp << ","
           << pl_slam::TrackingStateName(r.state) << "," << r.points_detected << ","
-          << r.lines_detected << "," << r.point_inliers << "," << r.line_inliers << ","
-          << std::setprecision(3) << r.total_ms;
+          << r.lines_detected << "," << r.points_stereo << "," << r.lines_stereo << ","
+          << r.point_matches << "," << r.line_matches << "," << r.point_inliers << ","
+          << r.line_inliers << "," << std::setprecision(3) << r.total_ms;
     for (const auto& [name, ms] : r.stage_ms) {
       if (std::find(stages_.begin(), stages_.end(), name) == stages_.end()) stages_.push_back(name);
       rows_ << "," << name << "=" << ms;
@@ -140,7 +141,8 @@ class TimingLog {
     if (!rows_) throw pl_slam::InputError(rows_path_ + ": write failed (disk full?)");
     std::ifstream in(rows_path_);
     std::ostringstream csv, frames;
-    csv << "frame,stamp,state,points,lines,point_inliers,line_inliers";
+    csv << "frame,stamp,state,points,lines,points_stereo,lines_stereo,point_matches,line_matches,"
+           "point_inliers,line_inliers";
     for (const auto& s : stages_) csv << "," << s << "_ms";
     csv << ",total_ms\n";
     std::vector<double> totals;
@@ -151,19 +153,20 @@ class TimingLog {
       std::stringstream ss(line);
       std::string f;
       while (std::getline(ss, f, ',')) fields.push_back(f);
-      if (fields.size() < 8) throw pl_slam::InputError(rows_path_ + ": malformed row: " + line);
+      if (fields.size() < kFixed)
+        throw pl_slam::InputError(rows_path_ + ": malformed row: " + line);
       std::fill(values.begin(), values.end(), "0.000");
-      for (size_t i = 8; i < fields.size(); ++i) {
+      for (size_t i = kFixed; i < fields.size(); ++i) {
         const size_t eq = fields[i].find('=');
         const auto it = std::find(stages_.begin(), stages_.end(), fields[i].substr(0, eq));
         if (eq != std::string::npos && it != stages_.end())
           values[it - stages_.begin()] = fields[i].substr(eq + 1);
       }
-      for (size_t i = 0; i < 7; ++i) csv << (i ? "," : "") << fields[i];
+      for (size_t i = 0; i + 1 < kFixed; ++i) csv << (i ? "," : "") << fields[i];
       for (const auto& v : values) csv << "," << v;
-      csv << "," << fields[7] << "\n";
+      csv << "," << fields[kFixed - 1] << "\n";
       frames << fields[1] << "\n";
-      totals.push_back(std::atof(fields[7].c_str()));
+      totals.push_back(std::atof(fields[kFixed - 1].c_str()));
     }
     pl_slam::WriteFileAtomic(out_dir_ + "/timing.csv", csv.str());
     // Every frame read (tracked or not): what coverage is measured against.
@@ -173,6 +176,7 @@ class TimingLog {
   }
 
  private:
+  static constexpr size_t kFixed = 12;  // columns before the stages, total_ms the last
   std::string out_dir_, rows_path_;
   std::ofstream rows_;
   std::vector<std::string> stages_;

@@ -111,12 +111,24 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
   orb->detect(image, all);
   // A textured image fills the pool at the normal threshold; a poor one (fewer corners in all
   // than are to be kept: plain walls) is searched again at the low-contrast threshold, on
-  // every pyramid level, as ORB-SLAM lowers its threshold where a cell finds nothing.
+  // every pyramid level, and as ORB-SLAM does, only the grid cells the normal threshold left
+  // empty take those weaker corners: where a cell has real corners, low-contrast ones (noise
+  // on a faint gradient, blurred edges) would only dilute them.
   if (options_.min_fast_threshold < options_.fast_threshold &&
       static_cast<int>(all.size()) < options_.max_points) {
+    const int cols = options_.grid_cols, rows = options_.grid_rows;
+    auto cell = [&](const cv::Point2f& p) {
+      const int cx = std::clamp(static_cast<int>(p.x * cols / image.cols), 0, cols - 1);
+      const int cy = std::clamp(static_cast<int>(p.y * rows / image.rows), 0, rows - 1);
+      return cy * cols + cx;
+    };
+    std::vector<char> occupied(static_cast<std::size_t>(cols * rows), 0);
+    for (const cv::KeyPoint& kp : all) occupied[cell(kp.pt)] = 1;
+    std::vector<cv::KeyPoint> weak;
     orb->setFastThreshold(options_.min_fast_threshold);
-    all.clear();
-    orb->detect(image, all);
+    orb->detect(image, weak);
+    for (const cv::KeyPoint& kp : weak)
+      if (!occupied[cell(kp.pt)]) all.push_back(kp);
   }
   if (all.empty()) return;
   *keypoints = BucketKeypoints(all, image.size(), options_.grid_cols, options_.grid_rows,

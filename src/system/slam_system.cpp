@@ -333,6 +333,10 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   result.is_keyframe = r.is_keyframe;
   result.points_detected = r.points_detected;
   result.lines_detected = r.lines_detected;
+  result.points_stereo = r.points_stereo;
+  result.lines_stereo = r.lines_stereo;
+  result.point_matches = r.point_matches;
+  result.line_matches = r.line_matches;
   result.point_inliers = r.point_inliers;
   result.line_inliers = r.line_inliers;
   result.warning = r.warning;

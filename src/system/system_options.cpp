@@ -46,8 +46,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.points.scale_factor", &p.scale_factor, "ORB pyramid scale step");
   t.Add("tracker.points.fast_threshold", &p.fast_threshold, "FAST corner threshold");
   t.Add("tracker.points.min_fast_threshold", &p.min_fast_threshold,
-        "FAST threshold of a second search when an image has < max_points corners (= "
-        "fast_threshold: off)");
+        "FAST threshold of a second search, for the grid cells left empty, when an image has "
+        "< max_points corners (= fast_threshold: off)");
   t.Add("tracker.points.oversample", &p.oversample,
         "candidates per kept keypoint before bucketing");
 
@@ -272,6 +272,11 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "database results tried for relocalisation");
   t.Add("loop.loop_edge_weight", &lc.loop_edge_weight,
         "information of a loop edge relative to a pose-graph edge");
+  t.Add("loop.max_drift_ratio", &lc.max_drift_ratio,
+        "a loop may move its keyframe by at most max_drift_floor + this x the path since "
+        "the candidate (odometry consistency)");
+  t.Add("loop.max_drift_floor", &lc.max_drift_floor,
+        "loop correction always allowed by the odometry consistency check, m");
   t.Add("loop.global_ba", &lc.global_ba,
         "after a loop correction, bundle-adjust the whole map in the background");
   t.Add("loop.global_ba_iterations", &lc.global_ba_iterations,

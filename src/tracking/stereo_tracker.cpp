@@ -198,9 +198,11 @@ struct StereoTracker::Impl {
       // agree with and never sees the ones far from it.
       std::vector<SE3> candidates{start};
       if (prior) candidates.push_back(SE3());
+      // Support down to the relaxed gate's count: whether such a pose is kept is the gates'
+      // decision (Track), but the refinement should start from it.
       const ConsensusResult c =
           FindMotionConsensus(camera, pm, points_cur, lm, lines_cur_P, lines_cur_Q, candidates,
-                              options.min_inliers, options.consensus);
+                              RelaxedFloor(), options.consensus);
       if (c.success) {
         start = c.T_cur_prev;
         pm = Gated(pm, c.point_gate);
@@ -212,21 +214,31 @@ struct StereoTracker::Impl {
     return out;
   }
 
+  /// Fewest inliers any gate keeps: relaxed_min_inliers when the relaxed gate is on.
+  int RelaxedFloor() const {
+    return options.relaxed_min_inliers > 0
+               ? std::min(options.min_inliers, options.relaxed_min_inliers)
+               : options.min_inliers;
+  }
+
   /// The relaxed gate: an estimate with fewer than min_inliers but at least
   /// relaxed_min_inliers is kept when it agrees with the constant-velocity prediction (a
-  /// corner with a dozen good features), and its own covariance is tight.
+  /// corner with a dozen good features), and its own covariance is tight. Without a motion
+  /// model there is nothing to agree with: a few clustered features can leave rotation and
+  /// translation traded against each other by centimetres within their covariance.
   bool AgreesWithPrior(const MotionEstimate& est, const SE3& prior) const {
-    if (est.point_inliers + est.line_inliers < options.relaxed_min_inliers) return false;
-    const SE3 deviation = est.T_cur_prev * prior.inverse();
-    const double max_rad = options.relaxed_max_deviation_deg * M_PI / 180.0;
-    if (deviation.translation().norm() > options.relaxed_max_deviation ||
-        deviation.RotationAngle() > max_rad)
+    if (options.relaxed_min_inliers <= 0 ||
+        est.point_inliers + est.line_inliers < options.relaxed_min_inliers)
       return false;
+    const SE3 deviation = est.T_cur_prev * prior.inverse();
+    const double max_m = options.relaxed_max_deviation;
+    const double max_rad = options.relaxed_max_deviation_deg * M_PI / 180.0;
+    if (deviation.translation().norm() > max_m || deviation.RotationAngle() > max_rad) return false;
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> t(
         est.covariance_prev_cur.topLeftCorner<3, 3>());
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> r(
         est.covariance_prev_cur.bottomRightCorner<3, 3>());
-    return std::sqrt(std::max(0.0, t.eigenvalues()(2))) <= options.relaxed_max_deviation &&
+    return std::sqrt(std::max(0.0, t.eigenvalues()(2))) <= max_m &&
            std::sqrt(std::max(0.0, r.eigenvalues()(2))) <= max_rad;
   }
 

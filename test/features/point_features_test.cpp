@@ -50,6 +50,35 @@ TEST(PointDetector, BucketKeepsQuotaPerCellAndBudget) {
                           [](const cv::KeyPoint& k) { return k.response == 1.f; }));
 }
 
+// Faint corners (contrast 12 grey levels: below fast_threshold 20, above min_fast_threshold 7)
+// are taken where a grid cell has no strong corner, and left out where one has: a poor image
+// gains its low-contrast structure without diluting its real corners.
+TEST(PointDetector, LowContrastCornersFillOnlyTheEmptyCells) {
+  cv::Mat img(480, 752, CV_8UC1, cv::Scalar(100));
+  const cv::Rect strong(20, 15, 30, 30), faint_shared(60, 45, 20, 20),
+      faint_alone(410, 270, 20, 20);
+  cv::rectangle(img, strong, cv::Scalar(200), cv::FILLED);        // cell (0, 0)
+  cv::rectangle(img, faint_shared, cv::Scalar(112), cv::FILLED);  // cell (0, 0) too
+  cv::rectangle(img, faint_alone, cv::Scalar(112), cv::FILLED);   // cell (4, 3), alone
+  auto near = [](const std::vector<cv::KeyPoint>& kp, const cv::Rect& r) {
+    return std::count_if(kp.begin(), kp.end(), [&](const cv::KeyPoint& k) {
+      return k.pt.x > r.x - 6 && k.pt.x < r.x + r.width + 6 && k.pt.y > r.y - 6 &&
+             k.pt.y < r.y + r.height + 6;
+    });
+  };
+  PointDetectorOptions opt;
+  std::vector<cv::KeyPoint> kp;
+  cv::Mat desc;
+  PointDetector(opt).Detect(img, &kp, &desc);
+  EXPECT_GT(near(kp, strong), 0);
+  EXPECT_GT(near(kp, faint_alone), 0) << "a cell without strong corners takes faint ones";
+  EXPECT_EQ(near(kp, faint_shared), 0) << "a cell with strong corners keeps only those";
+  opt.min_fast_threshold = opt.fast_threshold;  // the low-contrast search off
+  PointDetector(opt).Detect(img, &kp, &desc);
+  EXPECT_GT(near(kp, strong), 0);
+  EXPECT_EQ(near(kp, faint_alone), 0);
+}
+
 TEST(PointDetector, EmptyAndUniformImagesGiveNothing) {
   PointDetector det{PointDetectorOptions()};
   std::vector<cv::KeyPoint> kp;

@@ -19,8 +19,9 @@ struct PointDetectorOptions {
   double scale_factor = 1.2;  ///< ORB pyramid scale step
   int fast_threshold = 20;    ///< FAST corner threshold
   /// An image with fewer corners than max_points at fast_threshold (plain walls) is searched
-  /// again at this lower threshold, so low-contrast corners of door frames, skirting and
-  /// shelves are found; textured images are left as they are. fast_threshold = off.
+  /// again at this lower threshold, and the grid cells without a corner at fast_threshold take
+  /// what it finds, so low-contrast corners of door frames, skirting and shelves are found;
+  /// textured images and textured cells are left as they are. fast_threshold = off.
   int min_fast_threshold = 7;
   double oversample = 8.0;  ///< candidates per kept keypoint before bucketing (large, so
                             ///< texture clusters cannot crowd weak corners out of the pool)

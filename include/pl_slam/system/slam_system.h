@@ -63,6 +63,10 @@ struct FrameResult {
   bool keyframe_skipped = false;
   int points_detected = 0;
   int lines_detected = 0;
+  int points_stereo = 0;  ///< detected points with a stereo depth
+  int lines_stereo = 0;   ///< detected segments with a stereo depth
+  int point_matches = 0;  ///< frame-to-frame point matches (before the inlier selection)
+  int line_matches = 0;   ///< frame-to-frame segment matches
   int point_inliers = 0;
   int line_inliers = 0;
   bool map_tracked = false;  ///< the pose was refined against the local map
