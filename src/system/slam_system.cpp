@@ -248,6 +248,8 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   }
   // What tracking does to the pose from here on is odometry; the corrections above are not.
   const SE3 T_w_before = s.T_w_c;
+  const KeyframeId reference_before = s.reference;
+  const SE3 T_w_reference_before = s.T_w_reference;
 
   // Keyframes whenever local mapping can take them (tracker.keyframes.idle_min_frames); the
   // mapper's lock is only taken when that rule is on.
@@ -342,7 +344,16 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   result.warning = r.warning;
   result.stage_ms = r.stage_ms;
   if (s.mapper) TrackAndMap(frame, r, &result);
-  AdvanceOdometry(T_w_before, r, &result);
+  // A bundle adjustment or loop correction the mapping thread applied while this frame was
+  // tracked may have reached the local-map refinement: the pose difference would then carry
+  // part of a correction, so the odometry takes the tracker's own increment instead.
+  bool map_moved = false;
+  if (s.mapper && reference_before != kNoId) {
+    SE3 T_w_ref;
+    map_moved = s.map->KeyframePose(reference_before, &T_w_ref) &&
+                !T_w_ref.matrix().isApprox(T_w_reference_before.matrix(), 1e-12);
+  }
+  AdvanceOdometry(T_w_before, r, map_moved, &result);
   if (result.pose_valid) {
     std::lock_guard<std::mutex> lock(s.trajectory_mutex);
     FrameRecord rec;
@@ -357,13 +368,14 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   return result;
 }
 
-void SlamSystem::AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r,
+void SlamSystem::AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r, bool map_moved,
                                  FrameResult* result) {
   Impl& s = *impl_;
   if (!result->relocalized) {
     // The tracked (or, while lost, predicted) motion of this frame, local-map refinement
     // included. A relocalisation jump is no motion: odom holds and map -> odom takes it.
-    result->T_prev_cur = T_w_before.inverse() * s.T_w_c;
+    result->T_prev_cur =
+        map_moved && (r.pose_valid || r.predicted) ? r.T_prev_cur : T_w_before.inverse() * s.T_w_c;
     s.odometry.Advance(result->T_prev_cur, result->pose_valid || result->predicted
                                                ? result->covariance
                                                : Matrix6d::Zero());

@@ -140,8 +140,10 @@ class SlamSystem {
   /// Local-map tracking and keyframe hand-over for a frame the tracker processed.
   void TrackAndMap(const StereoFrame& frame, const TrackerResult& r, FrameResult* result);
   // Chains this frame's tracked motion (from T_w_before, the pose after the map's corrections)
-  // into the odometry and fills result's odometry fields.
-  void AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r, FrameResult* result);
+  // into the odometry and fills result's odometry fields; map_moved: the mapping thread moved
+  // the reference keyframe during the frame, so the tracker's own increment is chained.
+  void AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r, bool map_moved,
+                       FrameResult* result);
 
   struct Impl;
   std::unique_ptr<Impl> impl_;
