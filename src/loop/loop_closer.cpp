@@ -1,5 +1,6 @@
 #include "pl_slam/loop/loop_closer.h"
 
+#include <algorithm>
 #include <chrono>
 #include <condition_variable>
 #include <deque>
@@ -7,6 +8,7 @@
 #include <set>
 #include <thread>
 #include <unordered_set>
+#include <utility>
 
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
@@ -25,6 +27,8 @@ std::string LoopClosingOptions::Validate() const {
   if (e.empty()) e = CheckRange("consistency", consistency, 1, 100);
   if (e.empty()) e = CheckRange("relocalize_candidates", relocalize_candidates, 1, 100);
   if (e.empty()) e = CheckRange("loop_edge_weight", loop_edge_weight, 0.0, 1e6, true);
+  if (e.empty()) e = CheckRange("max_drift_ratio", max_drift_ratio, 0.0, 1e6);
+  if (e.empty()) e = CheckRange("max_drift_floor", max_drift_floor, 0.0, 1e6);
   if (e.empty()) e = CheckRange("global_ba_iterations", global_ba_iterations, 1, 1000);
   if (e.empty()) e = CheckRange("global_ba_followup", global_ba_followup, 0, 100000);
   if (!e.empty()) return e;
@@ -35,6 +39,31 @@ std::string LoopClosingOptions::Validate() const {
   e = pose_graph.Validate();
   if (!e.empty()) return "pose_graph." + e;
   return "";
+}
+
+LoopOdometryCheck CheckLoopAgainstOdometry(const SE3& T_w_query, const SE3& T_w_candidate,
+                                           const SE3& T_query_candidate, double path_length,
+                                           const LoopClosingOptions& options) {
+  LoopOdometryCheck c;
+  c.path_length = path_length;
+  const SE3 T_w_query_loop = T_w_candidate * T_query_candidate.inverse();
+  c.correction = (T_w_query_loop.translation() - T_w_query.translation()).norm();
+  c.allowed = options.max_drift_floor + options.max_drift_ratio * path_length;
+  c.plausible = c.correction <= c.allowed;  // false for NaN
+  return c;
+}
+
+double KeyframePathLengthLocked(const Map& map, KeyframeId from, KeyframeId to) {
+  if (from > to) std::swap(from, to);
+  const auto& keyframes = map.KeyframesLocked();
+  double length = 0.0;
+  const Keyframe* previous = nullptr;
+  for (auto it = keyframes.lower_bound(from); it != keyframes.end() && it->first <= to; ++it) {
+    if (previous)
+      length += (it->second->T_w_c.translation() - previous->T_w_c.translation()).norm();
+    previous = it->second.get();
+  }
+  return length;
 }
 
 namespace {
@@ -164,11 +193,29 @@ struct LoopCloser::Impl {
       if (!cand) continue;
       const RelativePose rel =
           EstimateRelativePose(camera, kf->features, cand->features, options.verification);
+      LoopOdometryCheck odometry;
+      if (rel.success) {
+        auto lock = map->Lock();
+        const auto q = map->KeyframeLocked(id);
+        const auto c = map->KeyframeLocked(cand_id);
+        if (!q || !c) continue;  // culled meanwhile
+        odometry = CheckLoopAgainstOdometry(q->T_w_c, c->T_w_c, rel.T_query_candidate,
+                                            KeyframePathLengthLocked(*map, cand_id, id), options);
+      }
       std::lock_guard<std::mutex> lock(mutex);
       ++stats.candidates_verified;
       if (!rel.success) {
         PL_LOG_DEBUG("loop candidate " << cand_id << " for keyframe " << id
                                        << " rejected: " << rel.failure);
+        continue;
+      }
+      if (!odometry.plausible) {
+        ++stats.rejected_by_odometry;
+        PL_LOG_DEBUG("loop candidate " << cand_id << " for keyframe " << id << " rejected: "
+                                       << "it moves the keyframe " << odometry.correction
+                                       << " m, more than the " << odometry.allowed
+                                       << " m of drift plausible over the "
+                                       << odometry.path_length << " m path since the candidate");
         continue;
       }
       LoopDetection d;

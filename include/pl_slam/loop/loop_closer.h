@@ -1,8 +1,12 @@
 // Loop closing and relocalisation (paper Section VI, DESIGN.md item 6): every keyframe that
 // local mapping has processed gets a point + line bag-of-words vector and is queried against
 // the keyframe database (inverted index); candidates are normalised by the keyframe's best
-// covisible neighbour, must be consistent over consecutive keyframes, and are verified
-// geometrically (EstimateRelativePose). A verified loop is handed to local mapping, which
+// covisible neighbour, must be consistent over consecutive keyframes, are verified
+// geometrically (EstimateRelativePose), and must agree with the odometry: the correction a
+// loop asks for must be drift the odometry can have accumulated over the path since the
+// candidate (CheckLoopAgainstOdometry; repeated facades, or a far building seen from two
+// places ~90 m apart, pass geometric verification with 30-40 inliers but ask to move the
+// keyframe by about the whole path). A verified loop is handed to local mapping, which
 // corrects the map between two keyframes (see mapping/loop_correction). Runs in its own thread
 // fed by a bounded queue; a sequential mode runs in the caller for deterministic tests.
 #pragma once
@@ -37,6 +41,13 @@ struct LoopClosingOptions {
   int consistency = 2;                ///< consecutive keyframes whose candidate groups must agree
   int relocalize_candidates = 5;      ///< database results tried for relocalisation
   double loop_edge_weight = 1.0;      ///< information of a loop edge relative to a graph edge
+  /// Odometry consistency (CheckLoopAgainstOdometry): a verified loop may move the query keyframe by
+  /// at most max_drift_floor + max_drift_ratio * (keyframe path length since the candidate).
+  /// Stereo visual odometry drifts ~0.1-2 % of the distance travelled (KITTI: 1-3 % for the
+  /// weaker systems); 0.1 leaves a 5-100x margin, and a loop asking for more is perceptual
+  /// aliasing (a repeated facade, a far building seen from two places), not drift.
+  double max_drift_ratio = 0.1;
+  double max_drift_floor = 0.5;  ///< correction always allowed (m): short paths, noise
   /// After each loop correction, bundle-adjust the whole map on a helper thread (local mapping
   /// merges the result between keyframes; a newer loop aborts a running one). Sequential mode
   /// runs it in place.
@@ -64,11 +75,36 @@ struct LoopDetection {
   int candidate_frame = -1;  ///< input frame index of the candidate keyframe
 };
 
+/// What the odometry says about a verified loop, from the map's keyframe poses.
+struct LoopOdometryCheck {
+  double path_length = 0.0;  ///< camera path along the keyframes from candidate to query, m
+  double correction = 0.0;   ///< distance the loop moves the query keyframe, m
+  double allowed = 0.0;      ///< max_drift_floor + max_drift_ratio * path_length, m
+  bool plausible = false;    ///< correction <= allowed
+};
+
+/// Odometry consistency of a verified loop (the check for perceptual aliasing): the loop
+/// places the query keyframe at T_w_candidate * T_query_candidate^-1; the odometry (the map)
+/// at T_w_query. A correction far beyond the drift the odometry can have accumulated over the
+/// path since the candidate is refused. `path_length` is the camera path from the candidate
+/// to the query keyframe (KeyframePathLengthLocked). Not applied to relocalisation, which
+/// has no odometry to compare with.
+LoopOdometryCheck CheckLoopAgainstOdometry(const SE3& T_w_query, const SE3& T_w_candidate,
+                                           const SE3& T_query_candidate, double path_length,
+                                           const LoopClosingOptions& options);
+
+/// Length of the camera path through the map's keyframes with ids from `from` to `to`
+/// (either order; insertion order is time order), summing the distances of consecutive
+/// keyframe centres. Culled keyframes are skipped, so it is a slight underestimate. The
+/// caller holds map.Lock().
+double KeyframePathLengthLocked(const Map& map, KeyframeId from, KeyframeId to);
+
 /// Counters and timings of loop closing.
 struct LoopStats {
   int keyframes_queried = 0;
   int keyframes_skipped = 0;  ///< queue full
   int candidates_verified = 0;
+  int rejected_by_odometry = 0;  ///< verified, but a correction beyond plausible drift
   int loops_detected = 0;
   int loops_corrected = 0;
   int relocalizations = 0;
