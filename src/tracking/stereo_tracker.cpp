@@ -127,6 +127,7 @@ struct StereoTracker::Impl {
 
   struct Estimation {
     MotionEstimate est;
+    bool consensus_agreed = false;  // the hypothesis stage found a motion enough agree with
     int point_matches = 0, line_matches = 0;
     double matching_ms = 0.0, motion_ms = 0.0;
   };
@@ -204,6 +205,7 @@ struct StereoTracker::Impl {
           FindMotionConsensus(camera, pm, points_cur, lm, lines_cur_P, lines_cur_Q, candidates,
                               RelaxedFloor(), options.consensus);
       if (c.success) {
+        out.consensus_agreed = true;
         start = c.T_cur_prev;
         pm = Gated(pm, c.point_gate);
         lm = Gated(lm, c.line_gate);
@@ -227,13 +229,21 @@ struct StereoTracker::Impl {
   /// model there is nothing to agree with: a few clustered features can leave rotation and
   /// translation traded against each other by centimetres within their covariance.
   bool AgreesWithPrior(const MotionEstimate& est, const SE3& prior) const {
+    const SE3 deviation = est.T_cur_prev * prior.inverse();
+    if (deviation.translation().norm() > options.relaxed_max_deviation ||
+        deviation.RotationAngle() > options.relaxed_max_deviation_deg * M_PI / 180.0)
+      return false;
+    return WellConstrained(est);
+  }
+
+  /// The relaxed gate's own conditions: at least relaxed_min_inliers, and the estimate's
+  /// standard deviations within the relaxed deviations.
+  bool WellConstrained(const MotionEstimate& est) const {
     if (options.relaxed_min_inliers <= 0 ||
         est.point_inliers + est.line_inliers < options.relaxed_min_inliers)
       return false;
-    const SE3 deviation = est.T_cur_prev * prior.inverse();
     const double max_m = options.relaxed_max_deviation;
     const double max_rad = options.relaxed_max_deviation_deg * M_PI / 180.0;
-    if (deviation.translation().norm() > max_m || deviation.RotationAngle() > max_rad) return false;
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> t(
         est.covariance_prev_cur.topLeftCorner<3, 3>());
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> r(
@@ -369,6 +379,9 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     prior = s.velocity_cur_prev * prior;
   if (!s.velocity_valid) prior = SE3();
   bool tracked = false;
+  // A few-feature estimate without a motion model to check it against (after a loss): not
+  // kept, but it becomes the motion model the next frame's estimate must agree with.
+  bool candidate_motion = false;
   Impl::Estimation f2f;
   if (s.has_previous)
     f2f = s.EstimateAgainst(s.previous, cur, s.velocity_valid ? &prior : nullptr, true);
@@ -387,6 +400,7 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       os << "only " << est.point_inliers << " point and " << est.line_inliers
          << " line inliers (min_inliers=" << s.options.min_inliers << ")";
       result.warning = os.str();
+      candidate_motion = !s.velocity_valid && f2f.consensus_agreed && s.WellConstrained(est);
     } else {
       const SE3 T_prev_cur = est.T_cur_prev.inverse();
       if (!T_prev_cur.IsFinite() || T_prev_cur.translation().norm() > s.options.max_translation ||
@@ -468,11 +482,24 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
   } else {
     // Lost: this frame becomes the new reference. For a few frames the pose follows the
     // constant-velocity model (the camera keeps moving while it is not tracked), then it
-    // stays at the last pose. The trajectory gets a gap (no valid pose for this frame), never
-    // a jump; the caller is told why.
+    // stays at the last pose; after that, a few-feature estimate the consensus agrees with
+    // becomes the model (confirmed or not by the next frame). The trajectory gets a gap (no
+    // valid pose for this frame), never a jump; the caller is told why.
     s.state = TrackerState::kLost;
     s.selector.Reset();
-    if (s.velocity_valid && s.predicted_frames < s.options.max_predicted_frames) {
+    if (candidate_motion && s.options.max_predicted_frames > 0) {
+      // Confirmation over two frames: a wrong few-feature estimate does not predict the
+      // next frame's motion. The pose moves by it (the best guess, flagged as predicted) and
+      // the motion model does not extend it if the next frame fails too.
+      const SE3 T_prev_cur = f2f.est.T_cur_prev.inverse();
+      s.T_w_c = s.T_w_c * T_prev_cur;
+      s.velocity_cur_prev = f2f.est.T_cur_prev;
+      s.velocity_valid = true;
+      s.predicted_frames = s.options.max_predicted_frames;
+      result.predicted = true;
+      result.T_prev_cur = T_prev_cur;
+      result.covariance_prev_cur = f2f.est.covariance_prev_cur;
+    } else if (s.velocity_valid && s.predicted_frames < s.options.max_predicted_frames) {
       const SE3 T_prev_cur = s.velocity_cur_prev.inverse();
       s.T_w_c = s.T_w_c * T_prev_cur;
       ++s.predicted_frames;

@@ -2,6 +2,9 @@
 // against the last keyframe lowers the error of the frame-to-frame chain, and a pose
 // correction from outside (the map) moves the keyframe reference with it, and a right
 // principal point offset is corrected by the camera's doffs.
+#include <algorithm>
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include <opencv2/imgproc.hpp>
@@ -178,5 +181,75 @@ TEST(StereoTrackerTest, WhileLostThePoseFollowsTheMotionModel) {
   EXPECT_LT(with, 0.5 * without);
 }
 
+// After a loss long enough for the motion model to give up, a view with only a few features
+// (three soft windows onto the room on a blank image, 8-14 inliers) is not trusted on one
+// estimate: the first one becomes the motion model (the pose follows it, flagged as
+// predicted, not kept) and tracking resumes once a later frame's estimate agrees with it,
+// sooner than with the relaxed gate off (then only an estimate with min_inliers is kept).
+// The windows bias every estimate here by centimetres, whatever the gate: accuracy is the
+// family benchmark's business, not this test's.
+TEST(StereoTrackerTest, AfterALossAFewFeatureEstimateIsKeptOnceTheNextFrameConfirmsIt) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kRoom;
+  const sim::SyntheticSequence seq(so);
+  const int w = seq.camera().width, h = seq.camera().height;
+  // Smooth fall-off, so the windows add few corners of their own.
+  const cv::Point2d centres[] = {{150, 160}, {450, 120}, {330, 350}};
+  cv::Mat alpha(h, w, CV_32FC1);
+  for (int y = 0; y < h; ++y)
+    for (int x = 0; x < w; ++x) {
+      double a = 0.0;
+      for (const cv::Point2d& c : centres) {
+        const double r = std::hypot(x - c.x, y - c.y) / 35.0;
+        a = std::max(a, std::exp(-r * r * r * r));
+      }
+      alpha.at<float>(y, x) = static_cast<float>(a);
+    }
+  auto few = [&](StereoFrame* frame) {
+    for (cv::Mat* img : {&frame->left, &frame->right}) {
+      cv::Mat f;
+      img->convertTo(f, CV_32FC1);
+      f = f.mul(alpha) + 128.0f * (1.0f - alpha);
+      f.convertTo(*img, CV_8UC1);
+    }
+  };
+  struct Run {
+    int first_few = -1;  // first frame after the loss with a few-feature estimate
+    bool first_kept = false, first_predicted = false;
+    int first_kept_frame = -1;
+  };
+  // Frames 10-24 blank: lost, the motion model stops after max_predicted_frames.
+  auto run = [&](int relaxed_min_inliers) {
+    TrackerOptions options;
+    options.relaxed_min_inliers = relaxed_min_inliers;
+    StereoTracker tracker(seq.camera(), options);
+    Run out;
+    for (int i = 0; i < 40; ++i) {
+      StereoFrame frame = seq.Render(i);
+      if (i >= 10 && i < 25) frame.left = frame.right = cv::Mat(h, w, CV_8UC1, cv::Scalar(128));
+      if (i >= 25) few(&frame);
+      const TrackerResult r = tracker.Track(frame);
+      if (i < 26) continue;
+      const int inliers = r.point_inliers + r.line_inliers;
+      if (out.first_few < 0 && inliers >= 8 && inliers < options.min_inliers) {
+        out.first_few = i;
+        out.first_kept = r.pose_valid;
+        out.first_predicted = r.predicted;
+      }
+      if (r.pose_valid && out.first_kept_frame < 0) out.first_kept_frame = i;
+    }
+    return out;
+  };
+  const Run with = run(TrackerOptions().relaxed_min_inliers);
+  const Run without = run(0);
+  std::cout << "after the loss: first few-feature estimate at frame " << with.first_few
+            << ", first kept frame " << with.first_kept_frame
+            << " (relaxed gate off: " << without.first_kept_frame << ")\n";
+  ASSERT_GE(with.first_few, 26) << "the windowed views should give 8-14 inliers";
+  EXPECT_FALSE(with.first_kept) << "one few-feature estimate without a motion model was kept";
+  EXPECT_TRUE(with.first_predicted) << "it should become the motion model";
+  ASSERT_GT(with.first_kept_frame, with.first_few);
+  if (without.first_kept_frame >= 0) EXPECT_LT(with.first_kept_frame, without.first_kept_frame);
+}
 }  // namespace
 }  // namespace pl_slam

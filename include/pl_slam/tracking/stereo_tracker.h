@@ -35,7 +35,9 @@ struct TrackerOptions {
   int min_inliers = 15;  ///< fewer point + line inliers than this: tracking lost
   /// ... unless there are at least this many and the estimate agrees with the
   /// constant-velocity prediction within relaxed_max_deviation(_deg), its covariance's
-  /// standard deviations too (0, or not below min_inliers: no relaxed gate).
+  /// standard deviations too. Without a motion model (after a loss) such an estimate, when
+  /// the consensus agrees with it, is not kept but becomes the model the next frame must
+  /// agree with (0, or not below min_inliers: no relaxed gate).
   int relaxed_min_inliers = 8;
   double relaxed_max_deviation = 0.05;     ///< relaxed gate: largest deviation, m
   double relaxed_max_deviation_deg = 3.0;  ///< relaxed gate: largest deviation, deg
