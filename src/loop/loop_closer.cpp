@@ -214,8 +214,8 @@ struct LoopCloser::Impl {
         PL_LOG_DEBUG("loop candidate " << cand_id << " for keyframe " << id << " rejected: "
                                        << "it moves the keyframe " << odometry.correction
                                        << " m, more than the " << odometry.allowed
-                                       << " m of drift plausible over the "
-                                       << odometry.path_length << " m path since the candidate");
+                                       << " m of drift plausible over the " << odometry.path_length
+                                       << " m path since the candidate");
         continue;
       }
       LoopDetection d;

@@ -104,8 +104,7 @@ TEST(LoopOdometryCheckTest, KeepsATrueRevisitWithOrdinaryDrift) {
             << " m, allowed " << c.allowed << " m\n";
   EXPECT_GT(c.path_length, 18.0);
   EXPECT_NEAR(c.correction,
-              ((drift * T_w_query_true).translation() - T_w_query_true.translation()).norm(),
-              1e-9);
+              ((drift * T_w_query_true).translation() - T_w_query_true.translation()).norm(), 1e-9);
   EXPECT_GT(c.correction, 0.05);
   EXPECT_TRUE(c.plausible);
   // The same correction asked over a short path is still within the floor.

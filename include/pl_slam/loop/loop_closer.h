@@ -41,8 +41,8 @@ struct LoopClosingOptions {
   int consistency = 2;                ///< consecutive keyframes whose candidate groups must agree
   int relocalize_candidates = 5;      ///< database results tried for relocalisation
   double loop_edge_weight = 1.0;      ///< information of a loop edge relative to a graph edge
-  /// Odometry consistency (CheckLoopAgainstOdometry): a verified loop may move the query keyframe by
-  /// at most max_drift_floor + max_drift_ratio * (keyframe path length since the candidate).
+  /// Odometry consistency (CheckLoopAgainstOdometry): a verified loop may move the query keyframe
+  /// by at most max_drift_floor + max_drift_ratio * (keyframe path length since the candidate).
   /// Stereo visual odometry drifts ~0.1-2 % of the distance travelled (KITTI: 1-3 % for the
   /// weaker systems); 0.1 leaves a 5-100x margin, and a loop asking for more is perceptual
   /// aliasing (a repeated facade, a far building seen from two places), not drift.
