@@ -127,7 +127,7 @@ struct StereoTracker::Impl {
 
   struct Estimation {
     MotionEstimate est;
-    bool consensus_agreed = false;  // the hypothesis stage found a motion enough agree with
+    bool consensus_agreed = false;  // the hypothesis stage found a motion RelaxedFloor() support
     int point_matches = 0, line_matches = 0;
     double matching_ms = 0.0, motion_ms = 0.0;
   };
@@ -226,8 +226,9 @@ struct StereoTracker::Impl {
   /// The relaxed gate: an estimate with fewer than min_inliers but at least
   /// relaxed_min_inliers is kept when it agrees with the constant-velocity prediction (a
   /// corner with a dozen good features), and its own covariance is tight. Without a motion
-  /// model there is nothing to agree with: a few clustered features can leave rotation and
-  /// translation traded against each other by centimetres within their covariance.
+  /// model (after a loss) there is nothing to agree with, and a few clustered features can
+  /// trade rotation against translation by centimetres within their covariance: such an
+  /// estimate is not kept but becomes the model the next frame must agree with (Track).
   bool AgreesWithPrior(const MotionEstimate& est, const SE3& prior) const {
     const SE3 deviation = est.T_cur_prev * prior.inverse();
     if (deviation.translation().norm() > options.relaxed_max_deviation ||
@@ -492,7 +493,7 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       // next frame's motion. The pose moves by it (the best guess, flagged as predicted) and
       // the motion model does not extend it if the next frame fails too.
       const SE3 T_prev_cur = f2f.est.T_cur_prev.inverse();
-      s.T_w_c = s.T_w_c * T_prev_cur;
+      s.T_w_c = s.T_w_previous * T_prev_cur;
       s.velocity_cur_prev = f2f.est.T_cur_prev;
       s.velocity_valid = true;
       s.predicted_frames = s.options.max_predicted_frames;
