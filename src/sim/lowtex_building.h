@@ -13,6 +13,7 @@
 
 #include "pl_slam/sim/procedural_texture.h"
 #include "pl_slam/sim/scenes.h"
+#include "motion_timing.h"
 
 namespace pl_slam::sim::lowtex {
 
@@ -38,11 +39,6 @@ constexpr double kOpeningHeight = 2.1;
 constexpr double kWallThickness = 0.12;
 
 inline Vec3 At(const Vec2& p, double z) { return Vec3(p.x(), p.y(), z); }
-
-inline double Smoothstep(double x) {
-  x = std::clamp(x, 0.0, 1.0);
-  return x * x * (3.0 - 2.0 * x);
-}
 
 // What a layout puts on one wall. Positions are metres along the wall from its start.
 struct WallFeatures {
@@ -513,30 +509,16 @@ class Path2D {
 
 // Arc length walked at each time step of a walk: `speed` m/s on straight legs, `turn_speed`
 // on arcs (blended over 1.2 m), starting at 35 % speed and easing to a stop at the end.
-class WalkTiming {
+class WalkTiming : public ArcLengthTable {
  public:
-  WalkTiming(const Path2D& path, double speed, double turn_speed) {
-    s_.push_back(0.0);
-    double s = 0.0;
-    while (s < path.length()) {
-      const double turn = Smoothstep(path.DistanceToTurn(s) / 1.2);
-      double v = turn_speed + (speed - turn_speed) * turn;
-      v *= 0.35 + 0.65 * Smoothstep(s / 1.0);
-      v *= 0.25 + 0.75 * Smoothstep((path.length() - s) / 0.8);
-      s = std::min(path.length(), s + v * kDt);
-      s_.push_back(s);
-    }
-  }
-  double duration() const { return (s_.size() - 1) * kDt; }
-  double ArcLength(double t) const {
-    const double x = std::clamp(t / kDt, 0.0, static_cast<double>(s_.size() - 1));
-    const std::size_t i = std::min(static_cast<std::size_t>(x), s_.size() - 2);
-    return s_[i] + (x - i) * (s_[i + 1] - s_[i]);
-  }
-
- private:
-  static constexpr double kDt = 0.002;
-  std::vector<double> s_;
+  WalkTiming(const Path2D& path, double speed, double turn_speed)
+      : ArcLengthTable(path.length(), [&](double s) {
+          const double turn = Smoothstep(path.DistanceToTurn(s) / 1.2);
+          double v = turn_speed + (speed - turn_speed) * turn;
+          v *= 0.35 + 0.65 * Smoothstep(s / 1.0);
+          v *= 0.25 + 0.75 * Smoothstep((path.length() - s) / 0.8);
+          return v;
+        }) {}
 };
 
 // Keyframed motion (time, x, y, yaw) with cubic Hermite interpolation: tangents by central

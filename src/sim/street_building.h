@@ -14,6 +14,7 @@
 
 #include "pl_slam/sim/procedural_texture.h"
 #include "pl_slam/sim/world.h"
+#include "motion_timing.h"
 
 namespace pl_slam::sim::street {
 
@@ -142,11 +143,5 @@ class StreetBuilder {
   uint64_t next_tag_ = 1000;
   cv::RNG rng_;
 };
-
-// Smooth step 0 -> 1 over [0, 1].
-inline double Smoothstep(double x) {
-  x = x < 0.0 ? 0.0 : (x > 1.0 ? 1.0 : x);
-  return x * x * (3.0 - 2.0 * x);
-}
 
 }  // namespace pl_slam::sim::street

@@ -30,29 +30,15 @@ constexpr double kSharpTurn = 1.0 / 60.0;  // curvature the car slows down for
 
 // Arc length along a drive at each time step: the cruising speed varying by +-4 % over
 // 180 m, slowed to turn_speed on arcs sharper than kSharpTurn (blended over 35 m).
-class DriveTiming {
+class DriveTiming : public ArcLengthTable {
  public:
   DriveTiming(const StreetPath& path, double s_start, double length, double cruise,
-              double turn_speed, double phase) {
-    s_.push_back(0.0);
-    double s = 0.0;
-    while (s < length) {
-      const double base = cruise * (1.0 + 0.04 * std::sin(2 * kPi * s / 180.0 + phase));
-      const double turn = street::Smoothstep(path.DistanceToCurve(s_start + s, kSharpTurn) / 35.0);
-      s = std::min(length, s + (turn_speed + (base - turn_speed) * turn) * kDt);
-      s_.push_back(s);
-    }
-  }
-  double duration() const { return (s_.size() - 1) * kDt; }
-  double ArcLength(double t) const {
-    const double x = std::clamp(t / kDt, 0.0, static_cast<double>(s_.size() - 1));
-    const std::size_t i = std::min(static_cast<std::size_t>(x), s_.size() - 2);
-    return s_[i] + (x - i) * (s_[i + 1] - s_[i]);
-  }
-
- private:
-  static constexpr double kDt = 0.002;
-  std::vector<double> s_;
+              double turn_speed, double phase)
+      : ArcLengthTable(length, [&](double s) {
+          const double base = cruise * (1.0 + 0.04 * std::sin(2 * kPi * s / 180.0 + phase));
+          const double turn = Smoothstep(path.DistanceToCurve(s_start + s, kSharpTurn) / 35.0);
+          return turn_speed + (base - turn_speed) * turn;
+        }) {}
 };
 
 // A layout: its world (when built) and the car's drive along a lane.

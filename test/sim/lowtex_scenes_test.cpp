@@ -20,9 +20,15 @@
 #include "pl_slam/sim/structural_edges.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/util/error.h"
+#include "test_util/sim_geometry.h"
 
 namespace pl_slam::sim {
 namespace {
+
+using testing_util::DistanceToQuad;
+using testing_util::WrapPi;
+using testing_util::Yaw;
+using testing_util::YawProfile;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRad2Deg = 180.0 / kPi;
@@ -30,29 +36,6 @@ constexpr double kRad2Deg = 180.0 / kPi;
 const std::vector<SceneKind> kLowtex = {SceneKind::kLowtexCorner, SceneKind::kLowtexStraight,
                                         SceneKind::kLowtexSpin,   SceneKind::kLowtexDoorway,
                                         SceneKind::kLowtexWall,   SceneKind::kLowtexOffice};
-
-double DistanceToQuad(const TexturedQuad& q, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d rel = p - q.origin;
-  const double s = std::clamp(rel.dot(q.axis_u), 0.0, q.size_u);
-  const double t = std::clamp(rel.dot(q.axis_v), 0.0, q.size_v);
-  return (p - q.PointAt(s, t)).norm();
-}
-
-double Yaw(const SE3& T_w_c) {
-  const Eigen::Vector3d z = T_w_c.rotation().col(2);
-  return std::atan2(z.y(), z.x());
-}
-
-double WrapPi(double a) { return std::atan2(std::sin(a), std::cos(a)); }
-
-// Unwrapped yaw along the trajectory, degrees, starting at 0.
-std::vector<double> YawProfile(const Trajectory& gt) {
-  std::vector<double> yaw = {0.0};
-  for (std::size_t i = 1; i < gt.size(); ++i) {
-    yaw.push_back(yaw.back() + WrapPi(Yaw(gt[i].T_w_c) - Yaw(gt[i - 1].T_w_c)) * kRad2Deg);
-  }
-  return yaw;
-}
 
 int CountFast(const cv::Mat& img) {
   std::vector<cv::KeyPoint> kps;
