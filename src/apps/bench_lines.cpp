@@ -488,6 +488,9 @@ void RunSim(const Setup& setup, const std::string& scene, int frames) {
 // Texture (posters, tiles) has no recorded edges, so precision is meaningful on --bare.
 struct RecallStats {
   int edges = 0, found = 0, detections = 0, correct = 0, frames = 0;
+  // Correct detections steep enough for stereo, those given a depth, and those whose depth is
+  // within 0.5 px of disparity of the rendered one at both ends.
+  int steep = 0, with_depth = 0, depth_ok = 0;
   std::vector<double> ms;
 };
 
@@ -506,7 +509,10 @@ double Overlap(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::
 }
 
 void RunRecall(const std::string& scene, bool bare, const std::vector<int>& seeds, int frames,
+               const pl_slam::LineMatchingOptions& match,
                const std::vector<std::pair<std::string, pl_slam::LineDetectorOptions>>& configs) {
+  const double min_sin = std::sin(match.min_stereo_angle_deg * M_PI / 180.0);
+  std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> pts;
   std::vector<RecallStats> stats(configs.size());
   for (int seed : seeds) {
     pl_slam::sim::SequenceOptions so;
@@ -518,6 +524,8 @@ void RunRecall(const std::string& scene, bool bare, const std::vector<int>& seed
     for (int i = 0; i < static_cast<int>(seq.size()); i += 5) {
       const pl_slam::StereoFrame frame = seq.Render(i);
       const auto visible = seq.VisibleStructuralEdges(i);
+      const cv::Mat depth = seq.RenderDepth(i);
+      const pl_slam::StereoCamera& cam = seq.camera();
       for (size_t c = 0; c < configs.size(); ++c) {
         const pl_slam::LineDetector detector(configs[c].second);
         pl_slam::LineFeatures lines;
@@ -536,26 +544,41 @@ void RunRecall(const std::string& scene, bool bare, const std::vector<int>& seed
           ++st.edges;
           st.found += covered >= 0.5 * g.length();
         }
+        pl_slam::LineFeatures right;
+        cv::Mat right_desc;
+        detector.Detect(frame.right, &right, &right_desc);
+        pl_slam::MatchStereoLines(cam, &lines, desc, right, right_desc, match);
         for (const auto& l : lines) {
           ++st.detections;
-          for (const auto& g : visible) {
-            if (Overlap(g.a, g.b, l.s, l.e) >= 0.5 * l.length) {
-              ++st.correct;
-              break;
-            }
-          }
+          bool on_edge = false;
+          for (const auto& g : visible) on_edge |= Overlap(g.a, g.b, l.s, l.e) >= 0.5 * l.length;
+          st.correct += on_edge;
+          if (!on_edge || std::abs(std::sin(l.angle)) < min_sin) continue;
+          ++st.steep;
+          if (!l.has_depth) continue;
+          ++st.with_depth;
+          if (!GtSegment3D(cam, depth, l, &pts)) continue;
+          const double ds = cam.DisparityFromDepth(l.P_c.z()),
+                       de = cam.DisparityFromDepth(l.Q_c.z());
+          st.depth_ok +=
+              std::abs(0.9 * ds + 0.1 * de - cam.DisparityFromDepth(pts.front().z())) < 0.5 &&
+              std::abs(0.1 * ds + 0.9 * de - cam.DisparityFromDepth(pts.back().z())) < 0.5;
         }
       }
     }
   }
   std::cout << "| detector | frames | edges | recall | detections / frame | precision | ms / image "
-               "(median / p95) |\n|---|---|---|---|---|---|---|\n";
+               "(median / p95) | steep edges with stereo depth | depth within 0.5 px |\n"
+               "|---|---|---|---|---|---|---|---|---|\n";
   for (size_t c = 0; c < configs.size(); ++c) {
     const RecallStats& st = stats[c];
-    std::printf("| %s | %d | %d | %.1f%% | %.1f | %.1f%% | %s |\n", configs[c].first.c_str(),
-                st.frames, st.edges, 100.0 * st.found / std::max(1, st.edges),
+    std::printf("| %s | %d | %d | %.1f%% | %.1f | %.1f%% | %s | %.1f%% of %d | %.1f%% |\n",
+                configs[c].first.c_str(), st.frames, st.edges,
+                100.0 * st.found / std::max(1, st.edges),
                 static_cast<double>(st.detections) / std::max(1, st.frames),
-                100.0 * st.correct / std::max(1, st.detections), Stats(st.ms).c_str());
+                100.0 * st.correct / std::max(1, st.detections), Stats(st.ms).c_str(),
+                100.0 * st.with_depth / std::max(1, st.steep), st.steep,
+                100.0 * st.depth_ok / std::max(1, st.with_depth));
   }
 }
 
@@ -608,7 +631,7 @@ int Run(int argc, char** argv) {
     single.min_lines = 0;
     pl_slam::LineDetectorOptions lsd = setup.det;
     lsd.detector = pl_slam::LineDetectorKind::kLsd;
-    RunRecall(cl.Get("recall", ""), cl.Has("bare"), seeds, cl.GetInt("frames", 0),
+    RunRecall(cl.Get("recall", ""), cl.Has("bare"), seeds, cl.GetInt("frames", 0), setup.match,
               {{"edge chain (default: low-contrast search below min_lines)", setup.det},
                {"edge chain, normal thresholds only", single},
                {"LSD", lsd}});

@@ -47,6 +47,7 @@ constexpr char kUsage[] =
     "  --print-config        print every option with its value and meaning, then exit\n"
     "  --print-config-markdown  the same as a Markdown page (docs/configuration.md), then exit\n"
     "  --quiet               only the summary\n"
+    "  --verbose             also debug messages (why each lost frame was lost)\n"
     "  --realtime            feed frames at the recording's rate (live-like threaded mapping)\n"
     "  --memory-every N      every N frames, log resident memory, map size and mapping queue\n"
     "                        length to DIR/memory.csv\n"
@@ -252,7 +253,8 @@ int Run(int argc, char** argv) {
       argc, argv,
       {"out", "max-frames", "left-topic", "right-topic", "left-info", "right-info", "gt-topic",
        "config", "mode", "set", "memory-every", "watchdog", "load-map", "save-map", "doffs"},
-      {"quiet", "help", "print-config", "print-config-markdown", "realtime", "localization-only"});
+      {"quiet", "verbose", "help", "print-config", "print-config-markdown", "realtime",
+       "localization-only"});
   if (cl.Has("help")) {
     std::cout << kUsage;
     return 0;
@@ -288,7 +290,10 @@ int Run(int argc, char** argv) {
   const std::string input = cl.positional()[0];
   const std::string out_dir = cl.Get("out", "output/offline");
   const int max_frames = cl.GetInt("max-frames", -1);
+  if (cl.Has("quiet") && cl.Has("verbose"))
+    throw pl_slam::ConfigError("--quiet and --verbose contradict each other: give one");
   if (cl.Has("quiet")) pl_slam::SetLogLevel(pl_slam::LogLevel::kWarn);
+  if (cl.Has("verbose")) pl_slam::SetLogLevel(pl_slam::LogLevel::kDebug);
 
   auto open_source = [&]() -> std::unique_ptr<pl_slam::StereoSource> {
     if (std::filesystem::is_regular_file(input) ||

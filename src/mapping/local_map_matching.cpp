@@ -78,7 +78,13 @@ LocalMapMatches MatchLocalMap(const StereoCamera& camera, const LocalMap& local,
 
 LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures& features,
                                const LocalMap& local, const SE3& T_w_c_prior,
-                               const MappingOptions& options, const MappingFrontEnd& front_end) {
+                               const MappingOptions& options, const MappingFrontEnd& front_end,
+                               const LocalMapGate* gate) {
+  LocalMapGate own;
+  own.min_inliers = options.track_min_inliers;
+  own.max_correction = options.track_max_correction;
+  own.max_correction_deg = options.track_max_correction_deg;
+  if (!gate) gate = &own;
   LocalMapTracking result;
   result.T_w_c = T_w_c_prior;
   const SE3 T_c_w = T_w_c_prior.inverse();
@@ -103,7 +109,7 @@ LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures&
     m.weight = options.line_weight;
     lm.push_back(m);
   }
-  if (static_cast<int>(pm.size() + lm.size()) < options.track_min_inliers) {
+  if (static_cast<int>(pm.size() + lm.size()) < gate->min_inliers) {
     std::ostringstream os;
     os << "only " << pm.size() << " point and " << lm.size() << " line matches with the local map";
     result.failure = os.str();
@@ -116,7 +122,8 @@ LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures&
     result.failure = "local-map pose estimation failed: " + est.failure;
     return result;
   }
-  if (est.point_inliers + est.line_inliers < options.track_min_inliers) {
+  result.covariance = est.covariance;
+  if (est.point_inliers + est.line_inliers < gate->min_inliers) {
     std::ostringstream os;
     os << "only " << est.point_inliers + est.line_inliers << " local-map inliers";
     result.failure = os.str();
@@ -124,8 +131,8 @@ LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures&
   }
   const SE3 T_w_c = est.T_cur_prev.inverse();
   const SE3 correction = T_w_c_prior.inverse() * T_w_c;
-  if (!T_w_c.IsFinite() || correction.translation().norm() > options.track_max_correction ||
-      correction.RotationAngle() * 180.0 / M_PI > options.track_max_correction_deg) {
+  if (!T_w_c.IsFinite() || correction.translation().norm() > gate->max_correction ||
+      correction.RotationAngle() * 180.0 / M_PI > gate->max_correction_deg) {
     result.failure = "local-map correction too large; frame-to-frame pose kept";
     return result;
   }

@@ -2,6 +2,7 @@
 // tracker; mapping and loop closure plug in behind the same interface.
 #include "pl_slam/system/slam_system.h"
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <chrono>
@@ -11,6 +12,7 @@
 #include "pl_slam/mapping/local_map_matching.h"
 #include "pl_slam/system/frame_records.h"
 #include "pl_slam/system/odometry.h"
+#include "pl_slam/tracking/motion_estimator.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 
@@ -276,11 +278,32 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     const auto t0 = Clock::now();
     s.RefreshLocalMap();
     if (!s.local_map.point_ids.empty() || !s.local_map.line_ids.empty()) {
+      // While the pose follows the motion model, the tracker's relaxed gate applies: fewer
+      // inliers, when the estimate is tight and lands near the prediction.
+      const TrackerOptions& to = s.options.tracker;
+      const bool relaxed = r.predicted && to.relaxed_min_inliers > 0 &&
+                           to.relaxed_min_inliers < s.options.mapping.track_min_inliers;
+      LocalMapGate gate;
+      gate.min_inliers = s.options.mapping.track_min_inliers;
+      gate.max_correction = s.options.mapping.track_max_correction;
+      gate.max_correction_deg = s.options.mapping.track_max_correction_deg;
+      if (relaxed) {
+        gate.min_inliers = to.relaxed_min_inliers;
+        gate.max_correction = std::max(gate.max_correction, to.relaxed_max_deviation);
+        gate.max_correction_deg = std::max(gate.max_correction_deg, to.relaxed_max_deviation_deg);
+      }
       const LocalMapTracking rescue =
           TrackLocalMap(s.camera, s.tracker->last_features(), s.local_map, r.T_w_c,
-                        s.options.mapping, s.front_end);
+                        s.options.mapping, s.front_end, &gate);
+      const int inliers = rescue.point_inliers + rescue.line_inliers;
+      const SE3 correction = r.T_w_c.inverse() * rescue.T_w_c;
+      const bool strict =
+          inliers >= std::max(to.min_inliers, s.options.mapping.track_min_inliers) &&
+          correction.translation().norm() <= s.options.mapping.track_max_correction &&
+          correction.RotationAngle() * 180.0 / M_PI <= s.options.mapping.track_max_correction_deg;
       if (rescue.success &&
-          rescue.point_inliers + rescue.line_inliers >= s.options.tracker.min_inliers) {
+          (strict || (relaxed && SigmaWithin(rescue.covariance, to.relaxed_max_deviation,
+                                             to.relaxed_max_deviation_deg * M_PI / 180.0)))) {
         s.tracker->Rescued(rescue.T_w_c);
         r.pose_valid = true;
         r.state = TrackerState::kTracking;
@@ -292,6 +315,10 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
         PL_LOG_DEBUG("frame " << frame.index << ": visual odometry lost, the local map held ("
                               << rescue.point_inliers << " point and " << rescue.line_inliers
                               << " line inliers)");
+      } else {
+        PL_LOG_DEBUG("frame " << frame.index << ": the local map did not hold either ("
+                              << (rescue.success ? "estimate not tight enough" : rescue.failure)
+                              << ")");
       }
     }
     r.stage_ms.emplace_back("rescue",

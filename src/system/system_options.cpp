@@ -16,8 +16,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.parallel", &tr.parallel, "process the right image in a second thread");
   t.Add("tracker.min_inliers", &tr.min_inliers, "fewer point + line inliers: tracking lost");
   t.Add("tracker.relaxed_min_inliers", &tr.relaxed_min_inliers,
-        "fewer than min_inliers but this many are kept when the motion model agrees; without a "
-        "model (after a loss) they make one the next frame must agree with (0 = off)");
+        "fewer than min_inliers but this many are kept when the motion model agrees (also "
+        "against the local map while the pose is predicted); without a model (after a loss) "
+        "they make one the next frame must agree with (0 = off)");
   t.Add("tracker.relaxed_max_deviation", &tr.relaxed_max_deviation,
         "relaxed gate: largest deviation from the motion model and its sigma, m");
   t.Add("tracker.relaxed_max_deviation_deg", &tr.relaxed_max_deviation_deg,

@@ -451,4 +451,11 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
   return out;
 }
 
+bool SigmaWithin(const Matrix6d& covariance, double max_m, double max_rad) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> t(covariance.topLeftCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> r(covariance.bottomRightCorner<3, 3>());
+  return std::sqrt(std::max(0.0, t.eigenvalues()(2))) <= max_m &&
+         std::sqrt(std::max(0.0, r.eigenvalues()(2))) <= max_rad;
+}
+
 }  // namespace pl_slam

@@ -243,14 +243,8 @@ struct StereoTracker::Impl {
     if (options.relaxed_min_inliers <= 0 ||
         est.point_inliers + est.line_inliers < options.relaxed_min_inliers)
       return false;
-    const double max_m = options.relaxed_max_deviation;
-    const double max_rad = options.relaxed_max_deviation_deg * M_PI / 180.0;
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> t(
-        est.covariance_prev_cur.topLeftCorner<3, 3>());
-    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> r(
-        est.covariance_prev_cur.bottomRightCorner<3, 3>());
-    return std::sqrt(std::max(0.0, t.eigenvalues()(2))) <= max_m &&
-           std::sqrt(std::max(0.0, r.eigenvalues()(2))) <= max_rad;
+    return SigmaWithin(est.covariance_prev_cur, options.relaxed_max_deviation,
+                       options.relaxed_max_deviation_deg * M_PI / 180.0);
   }
 
   template <typename Matches>

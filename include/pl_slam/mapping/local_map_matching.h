@@ -41,17 +41,27 @@ struct LocalMapTracking {
   SE3 T_w_c;  ///< refined pose (the prior when not successful)
   int point_matches = 0, line_matches = 0;
   int point_inliers = 0, line_inliers = 0;
+  /// Covariance of the camera-frame perturbation of T_c_w (MotionEstimate::covariance).
+  Matrix6d covariance = Matrix6d::Zero();
   /// Inlier (feature index, landmark) pairs.
   std::vector<std::pair<int, LandmarkId>> point_associations, line_associations;
   std::string failure;  ///< why not successful
 };
 
+/// What TrackLocalMap accepts: fewest inliers and largest correction of the prior.
+struct LocalMapGate {
+  int min_inliers = 20;
+  double max_correction = 0.02;  ///< metres
+  double max_correction_deg = 0.25;
+};
+
 /// Refines T_w_c_prior by matching the frame's features to the local map and running the
 /// robust motion estimator on the 3D (world) - 2D correspondences. Refuses (success = false)
-/// with fewer than options.track_min_inliers inliers or a correction larger than
-/// options.track_max_correction.
+/// with fewer inliers or a larger correction than the gate allows (by default
+/// options.track_min_inliers and options.track_max_correction(_deg)).
 LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures& features,
                                const LocalMap& local, const SE3& T_w_c_prior,
-                               const MappingOptions& options, const MappingFrontEnd& front_end);
+                               const MappingOptions& options, const MappingFrontEnd& front_end,
+                               const LocalMapGate* gate = nullptr);
 
 }  // namespace pl_slam

@@ -115,6 +115,11 @@ struct MotionEstimate {
   std::string failure;   ///< why the estimate failed; empty on success
 };
 
+/// True when the largest standard deviation of a [rho; phi] covariance is at most max_m in
+/// translation and max_rad in rotation (a zero covariance, i.e. a failed estimate, passes:
+/// callers check success first).
+bool SigmaWithin(const Matrix6d& covariance, double max_m, double max_rad);
+
 /// Point residual r = pi(T P) - uv (pixels) and, when J is not null, its Jacobian dr/dd for the
 /// left perturbation T <- Exp(d) * T, d = [rho; phi]. Returns false and leaves r and J untouched
 /// when the transformed point's depth is not above min_depth (behind the camera, or NaN).

@@ -37,7 +37,8 @@ struct TrackerOptions {
   /// constant-velocity prediction within relaxed_max_deviation(_deg), its covariance's
   /// standard deviations too. Without a motion model (after a loss) such an estimate, when
   /// the consensus agrees with it, is not kept but becomes the model the next frame must
-  /// agree with (0, or not below min_inliers: no relaxed gate).
+  /// agree with (0, or not below min_inliers: no relaxed gate). SlamSystem applies the same
+  /// gate to tracking against the local map while the pose follows the motion model.
   int relaxed_min_inliers = 8;
   double relaxed_max_deviation = 0.05;     ///< relaxed gate: largest deviation, m
   double relaxed_max_deviation_deg = 3.0;  ///< relaxed gate: largest deviation, deg
