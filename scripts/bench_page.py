@@ -5,7 +5,7 @@ only; the static part (what the figures mean, the design decisions) is kept here
     /usr/bin/python3 scripts/benchmark_offline.py --page docs/BENCHMARKS.md --jobs 2 \\
         [--family-data DIR]     # optional: reuse rendered family sequences
 
---sections accuracy,speed,family reruns only those parts (the others from the last run's
+--sections accuracy,speed,family,street reruns only those parts (the others from the last run's
 results, OUT/page_results.json); --report-only rewrites the page from those results. A workspace
 built from an export of one commit (PL_SLAM_WS, with the commit in src/pl_slam/.source_commit)
 is reported as that commit; otherwise the page names the commit and the uncommitted code files.
@@ -16,7 +16,11 @@ Runs, in this order (outputs under --out, default output/bench_page):
             mapping in line (deterministic), --jobs runs at a time;
   speed:    every sequence, slam, points + lines, frames fed at the recording's rate
             (--realtime, mapping and loop closing in their threads), two runs each, one at a time;
-  family:   the low-texture family (--family lowtex defaults), --jobs runs at a time.
+  family:   the low-texture family (--family lowtex defaults), --jobs runs at a time;
+  street:   the street family as slam and as VO, points and points + lines, --jobs runs at a
+            time; pl_slam_bench_depth's disparity bias; one live run (scripts/bench_page_street.py).
+
+--family-data DIR holds the rendered sequences of both families (lowtex_* and street_* folders).
 """
 import argparse
 import concurrent.futures
@@ -28,7 +32,9 @@ import platform
 import subprocess
 import textwrap
 
-SECTIONS = ("accuracy", "speed", "family")
+import bench_page_street
+
+SECTIONS = ("accuracy", "speed", "family", "street")
 
 # Measured design choices behind the defaults: (title, text). Figures are those measured for
 # the decision (their commands and sequences as stated); the tables of the page are current.
@@ -171,7 +177,8 @@ def make_page(args, bo):
         write_page(args, bo, datetime.datetime.fromisoformat(r["t0"]),
                    datetime.datetime.fromisoformat(r["t1"]), r["load"], r["seqs"], r["main"],
                    r["mode_seqs"], acc, r["speed"], r["skipped"], r["fam_header"], r["fam_runs"],
-                   r["fam_summary"], out, r.get("jobs", 2), r.get("times", {}))
+                   r["fam_summary"], out, r.get("jobs", 2), r.get("times", {}), r.get("street"),
+                   r.get("took", {}), r.get("rerun", []))
         print("wrote %s from %s" % (args.page, saved))
         return 0
     # --sections reruns only some parts; the others come from the last run's results.
@@ -186,9 +193,16 @@ def make_page(args, bo):
         with open(saved) as f:
             prev = json.load(f)
     times = dict(prev.get("times", {})) if prev else {}
+    # Minutes per section, and the sections rerun on their own after the last full run.
+    took = dict(prev.get("took", {})) if prev else {}
+    rerun = sorted(set(prev.get("rerun", [])) | sections) if prev else []
 
     def now():
         return datetime.datetime.now(datetime.timezone.utc).isoformat()
+
+    def minutes(since):
+        return (datetime.datetime.now(datetime.timezone.utc) -
+                datetime.datetime.fromisoformat(since)).total_seconds() / 60.0
 
     data = os.path.join(out, "data")
     os.makedirs(data, exist_ok=True)
@@ -243,6 +257,7 @@ def make_page(args, bo):
         times["accuracy"] = now()
         with concurrent.futures.ThreadPoolExecutor(max_workers=jobs) as pool:
             acc = {(r["name"], r["variant"], r["mode"]): r for r in pool.map(accuracy, todo)}
+        took["accuracy"] = minutes(times["accuracy"])
     else:
         acc = {tuple(k.split("|")): v for k, v in prev["acc"].items()}
 
@@ -261,6 +276,8 @@ def make_page(args, bo):
             print("  FAILED: %s" % str(e).splitlines()[0], flush=True)
 
     load = load + [os.getloadavg()[0]] if "speed" in sections else prev["load"]
+    if "speed" in sections:
+        took["speed"] = minutes(times["speed"])
 
     # The low-texture family, rendered sequences reused when given.
     fam_args = argparse.Namespace(**vars(args))
@@ -271,8 +288,17 @@ def make_page(args, bo):
     if "family" in sections:
         times["family"] = now()
         _, fam_header, fam_runs, fam_summary = bo.run_family(fam_args)
+        took["family"] = minutes(times["family"])
     else:
         fam_header, fam_runs, fam_summary = prev["fam_header"], prev["fam_runs"], prev["fam_summary"]
+
+    # The street family (slam and VO), disparity bias and one live run.
+    if "street" in sections:
+        times["street"] = now()
+        street = bench_page_street.run_street(args, bo, out, jobs)
+        took["street"] = minutes(times["street"])
+    else:
+        street = prev.get("street")
 
     t1 = datetime.datetime.now(datetime.timezone.utc)
     if prev:  # the duration of the last full run
@@ -288,15 +314,17 @@ def make_page(args, bo):
                    "main": main, "mode_seqs": mode_seqs,
                    "acc": {"|".join(k): v for k, v in acc.items()}, "speed": speed,
                    "skipped": skipped, "fam_header": fam_header, "fam_runs": fam_runs,
-                   "fam_summary": fam_summary, "jobs": jobs, "times": times}, f, indent=1)
+                   "fam_summary": fam_summary, "jobs": jobs, "times": times, "street": street,
+                   "took": took, "rerun": rerun}, f, indent=1)
     write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skipped,
-               fam_header, fam_runs, fam_summary, out, jobs, times)
+               fam_header, fam_runs, fam_summary, out, jobs, times, street, took, rerun)
     print("wrote %s" % args.page)
     return 0
 
 
 def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skipped,
-               fam_header, fam_runs, fam_summary, out, jobs, times):
+               fam_header, fam_runs, fam_summary, out, jobs, times, street=None, took=None,
+               rerun=()):
     # A workspace built from an export of one commit (git archive) says which in
     # src/pl_slam/.source_commit; otherwise the binaries are the working tree's.
     exported = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(bo.BIN))),
@@ -329,19 +357,14 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("")
     add("which renders the synthetic sequences on first use, runs `pl_slam_offline` on every "
         "sequence and scores it with `pl_slam_evaluate` (outputs under `output/bench_page/`; "
-        "`--family-data DIR` reuses already rendered low-texture sequences). Do not edit the "
-        "tables by hand; the design decisions at the end are kept in `scripts/bench_page.py`.")
+        "`--family-data DIR` reuses already rendered low-texture and street sequences). Do not "
+        "edit the tables by hand; the design decisions at the end are kept in "
+        "`scripts/bench_page.py`.")
     add("")
     add("| | |")
     add("|---|---|")
     add("| machine | %s |" % machine())
-    when = [(k, datetime.datetime.fromisoformat(times[k])) for k in SECTIONS if k in times]
-    if when and len({w.strftime("%H:%M") for _, w in when}) > 1 and set(times) == set(SECTIONS):
-        date = "%s UTC (accuracy, speed, family runs started at %s)" % (
-            when[0][1].strftime("%Y-%m-%d"), ", ".join(w.strftime("%H:%M") for _, w in when))
-    else:
-        date = t0.strftime("%Y-%m-%d %H:%M") + " UTC"
-    add("| date | %s; the full run took %.0f minutes with every sequence already rendered |" % (date, (t1 - t0).total_seconds() / 60.0))
+    add("| date | %s |" % run_dates(t0, t1, times, took or {}, rerun))
     state = "clean" if not dirty and not untracked else "uncommitted changes in %s" % ", ".join(
         "`%s`" % p for p in (dirty + untracked)[:6]) + (" and %d more" % (len(dirty + untracked) - 6)
                                                          if len(dirty + untracked) > 6 else "")
@@ -496,7 +519,10 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("</details>")
     add("")
 
-    # (g) design decisions.
+    # (g) the street family.
+    L.extend(bench_page_street.street_lines(street))
+
+    # (h) design decisions.
     add("## Design decisions")
     add("")
     add("What was measured when choosing the defaults, and what was tried and rejected; "
@@ -508,6 +534,25 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("")
     with open(args.page, "w") as f:
         f.write("\n".join(wrap(l) for l in L))
+
+
+def run_dates(t0, t1, times, took, rerun):
+    """When the sections ran and how long the full run (and each section rerun on its own) took."""
+    when = [(k, datetime.datetime.fromisoformat(times[k])) for k in SECTIONS if k in times]
+    fmt = "%H:%M" if len({w.strftime("%Y-%m-%d") for _, w in when}) <= 1 else "%Y-%m-%d %H:%M"
+    if len({w.strftime("%H:%M") for _, w in when}) > 1:
+        date = "%s UTC (%s runs started at %s)" % (
+            when[0][1].strftime("%Y-%m-%d"), ", ".join(k for k, _ in when),
+            ", ".join(w.strftime(fmt) for _, w in when))
+    else:
+        date = t0.strftime("%Y-%m-%d %H:%M") + " UTC"
+    date += "; the full run took %.0f minutes with every sequence already rendered" % (
+        (t1 - t0).total_seconds() / 60.0)
+    again = ["%s (%s)" % (k, "%.0f minutes" % took[k] if k in took else "time not recorded")
+             for k in SECTIONS if k in rerun]
+    if again:
+        date += "; rerun on their own: " + ", ".join(again)
+    return date
 
 
 def wrap(line):
