@@ -1,6 +1,9 @@
 // Keyframe insertion: refine the pose against the previous keyframe, then give the keyframe's
 // features observations of existing landmarks before creating new ones, so that one physical
 // point or segment stays one landmark.
+#include <algorithm>
+#include <cmath>
+#include <iterator>
 #include <unordered_set>
 
 #include "mapping_steps.h"
@@ -9,6 +12,43 @@
 
 namespace pl_slam {
 namespace mapping {
+
+bool TriangulateLine(const StereoCamera& cam, const SE3& T_w_a, const LineFeature& a,
+                     const SE3& T_w_b, const LineFeature& b, double min_angle_rad, double max_depth,
+                     Eigen::Vector3d* P_w, Eigen::Vector3d* Q_w) {
+  constexpr double kMinDepth = 0.1;  // metres
+  // Image line l (l . (u, v, 1) = 0) -> plane through the centre with normal K^T l.
+  auto normal = [&](const LineFeature& f) {
+    return Eigen::Vector3d(f.l(0) * cam.fx, f.l(1) * cam.fy,
+                           f.l(0) * cam.cx + f.l(1) * cam.cy + f.l(2))
+        .normalized();
+  };
+  const Eigen::Vector3d na = T_w_a.rotation() * normal(a);
+  const Eigen::Vector3d nb = T_w_b.rotation() * normal(b);
+  if (na.cross(nb).norm() < std::sin(min_angle_rad)) return false;
+  const Eigen::Vector3d Ca = T_w_a.translation(), Cb = T_w_b.translation();
+  auto cast = [&](const Eigen::Vector2d& uv, Eigen::Vector3d* X) {
+    const Eigen::Vector3d d = T_w_b.rotation() * Eigen::Vector3d((uv.x() - cam.cx) / cam.fx,
+                                                                 (uv.y() - cam.cy) / cam.fy, 1.0);
+    const double denom = na.dot(d);
+    if (std::abs(denom) < 1e-12) return false;
+    const double z = na.dot(Ca - Cb) / denom;  // depth in view b (the ray has z = 1)
+    if (!(z >= kMinDepth && z <= max_depth)) return false;
+    *X = Cb + z * d;
+    return true;
+  };
+  if (!cast(b.s, P_w) || !cast(b.e, Q_w)) return false;
+  const SE3 T_a_w = T_w_a.inverse();
+  const Eigen::Vector3d Pa = T_a_w * *P_w, Qa = T_a_w * *Q_w;
+  if (Pa.z() < kMinDepth || Qa.z() < kMinDepth || Pa.z() > max_depth || Qa.z() > max_depth)
+    return false;
+  // The same stretch of line in both views: half of the shorter extent shared along a.
+  const Eigen::Vector2d u = (a.e - a.s) / a.length;
+  const double t1 = u.dot(cam.Project(Pa) - a.s), t2 = u.dot(cam.Project(Qa) - a.s);
+  const double shared = std::min(std::max(t1, t2), a.length) - std::max(std::min(t1, t2), 0.0);
+  return shared >= 0.5 * std::min(a.length, std::abs(t2 - t1));
+}
+
 namespace {
 
 /// World positions of the previous keyframe's features: its landmark's when it has one, else
@@ -59,10 +99,12 @@ bool CopyPrevious(const Context& ctx, PreviousKeyframe* prev) {
 }
 
 /// Matches the new keyframe against the previous one and refines its pose from the previous
-/// keyframe's 3D features; keeps only the inlier matches.
+/// keyframe's 3D features; keeps only the inlier matches. Line matches where neither segment
+/// has a 3D position (no landmark, no stereo depth) go to `depthless_matches`.
 void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Keyframe* kf,
                            std::vector<std::pair<int, int>>* point_matches,
-                           std::vector<std::pair<int, int>>* line_matches) {
+                           std::vector<std::pair<int, int>>* line_matches,
+                           std::vector<std::pair<int, int>>* depthless_matches) {
   const StereoFeatures& pf = prev.kf->features;
   const StereoFeatures& cf = kf->features;
   const SE3 T_new_prev = kf->T_w_c.inverse() * prev.T_w_c;
@@ -92,7 +134,10 @@ void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Key
     pm_used.emplace_back(i, j);
   }
   for (const auto& [i, j] : lm_all) {
-    if (!prev.line_valid[i]) continue;
+    if (!prev.line_valid[i]) {
+      if (!cf.lines[j].has_depth) depthless_matches->emplace_back(i, j);
+      continue;
+    }
     LineMatch3D2D m;
     m.P_prev = prev.line_P_w[i];
     m.Q_prev = prev.line_Q_w[i];
@@ -198,6 +243,44 @@ void FuseDuplicates(const Context& ctx, Keyframe* kf) {
   }
 }
 
+/// Caller holds the map lock. Extends the line tracks with the new keyframe's matches to the
+/// previous one (segments neither has a 3D position for) and triangulates each track between
+/// its first keyframe and the new one once they see it from far enough apart (consecutive
+/// keyframes at walking speed rarely do): the landmark is observed in both.
+void TriangulateDepthlessLines(const Context& ctx, const Keyframe& prev,
+                               const std::vector<std::pair<int, int>>& depthless_matches,
+                               Keyframe* kf) {
+  constexpr KeyframeId kTrackKeyframes = 30;  // tracks older than this many keyframes end
+  const double min_angle = ctx.options.line_triangulation_min_angle_deg * M_PI / 180.0;
+  if (!ctx.line_tracks || min_angle <= 0.0) return;
+  Map& map = *ctx.map;
+  LineTracks& tracks = *ctx.line_tracks;
+  for (auto it = tracks.begin(); it != tracks.end();)
+    it = it->first + kTrackKeyframes < kf->id ? tracks.erase(it) : std::next(it);
+  const std::pair<KeyframeId, int> none(kNoId, -1);
+  auto& mine = tracks[kf->id];
+  mine.assign(kf->features.lines.size(), none);
+  const auto prev_tracks = tracks.find(prev.id);
+  const double max_depth =
+      ctx.options.line_triangulation_max_depth_baselines * std::abs(ctx.camera.baseline);
+  for (const auto& [i, j] : depthless_matches) {
+    if (kf->line_landmarks[j] != kNoId || prev.line_landmarks[i] != kNoId) continue;
+    std::pair<KeyframeId, int> origin(prev.id, i);
+    if (prev_tracks != tracks.end() && prev_tracks->second[i] != none)
+      origin = prev_tracks->second[i];
+    const auto first = map.KeyframeLocked(origin.first);
+    if (!first || first->line_landmarks[origin.second] != kNoId) continue;
+    Eigen::Vector3d P_w, Q_w;
+    if (TriangulateLine(ctx.camera, first->T_w_c, first->features.lines[origin.second], kf->T_w_c,
+                        kf->features.lines[j], min_angle, max_depth, &P_w, &Q_w)) {
+      const LandmarkId lm = map.AddLineLocked(P_w, Q_w, first->id, origin.second);
+      if (lm != kNoId) map.AddLineObservationLocked(lm, kf->id, j);
+    } else {
+      mine[j] = origin;  // not yet: the track goes on
+    }
+  }
+}
+
 }  // namespace
 
 void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
@@ -210,9 +293,10 @@ void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
   kf->features = std::move(input->features);
 
   PreviousKeyframe prev;
-  std::vector<std::pair<int, int>> point_matches, line_matches;
+  std::vector<std::pair<int, int>> point_matches, line_matches, depthless_matches;
   const bool has_prev = CopyPrevious(ctx, &prev);
-  if (has_prev) RefineAgainstPrevious(ctx, prev, kf.get(), &point_matches, &line_matches);
+  if (has_prev)
+    RefineAgainstPrevious(ctx, prev, kf.get(), &point_matches, &line_matches, &depthless_matches);
 
   {
     auto lock = map.Lock();
@@ -239,6 +323,7 @@ void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
           lm = map.AddLineLocked(pk.T_w_c * pl.P_c, pk.T_w_c * pl.Q_c, pk.id, i);
         if (lm != kNoId) map.AddLineObservationLocked(lm, kf->id, j);
       }
+      TriangulateDepthlessLines(ctx, pk, depthless_matches, kf.get());
     }
   }
 

@@ -24,6 +24,11 @@ std::string MappingOptions::Validate() const {
   if (e.empty()) e = CheckRange("refine_min_inliers", refine_min_inliers, 6, 10000);
   if (e.empty()) e = CheckRange("search_radius", search_radius, 0.0, 200.0, true);
   if (e.empty()) e = CheckRange("refine_max_correction", refine_max_correction, 0.0, 100.0, true);
+  if (e.empty())
+    e = CheckRange("line_triangulation_min_angle_deg", line_triangulation_min_angle_deg, 0.0, 45.0);
+  if (e.empty())
+    e = CheckRange("line_triangulation_max_depth_baselines", line_triangulation_max_depth_baselines,
+                   0.0, 1e4, true);
   if (e.empty()) e = CheckRange("local_map_keyframes", local_map_keyframes, 0, 1000);
   if (e.empty()) e = CheckRange("cull_after_keyframes", cull_after_keyframes, 1, 1000);
   if (e.empty()) e = CheckRange("min_observations", min_observations, 1, 100);
@@ -48,6 +53,7 @@ std::string MappingOptions::Validate() const {
 
 struct LocalMapper::Impl {
   mapping::Context ctx;
+  mapping::LineTracks line_tracks;
   mutable std::mutex mutex;  // guards queue, busy, stop and stats (never held with the map's)
   std::condition_variable work_cv, idle_cv;
   std::deque<KeyframeInput> queue;
@@ -258,6 +264,7 @@ LocalMapper::LocalMapper(const StereoCamera& camera, const MappingOptions& optio
   impl_->ctx.options = options;
   impl_->ctx.front_end = front_end;
   impl_->ctx.map = map;
+  impl_->ctx.line_tracks = &impl_->line_tracks;
   if (options.threaded) impl_->thread = std::thread([this] { impl_->Run(); });
 }
 
@@ -311,6 +318,7 @@ void LocalMapper::Clear() {
       lock, [this] { return impl_->stop || (!impl_->busy && !impl_->global_ba_pending); });
   // Threaded: the mapping thread is idle and needs the mutex to go on; else this is its thread.
   impl_->followup_countdown = -1;
+  impl_->line_tracks.clear();
 }
 
 void LocalMapper::SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& options) {

@@ -4,6 +4,8 @@
 
 #include <atomic>
 #include <memory>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "pl_slam/camera/stereo_camera.h"
@@ -15,13 +17,29 @@
 namespace pl_slam {
 namespace mapping {
 
+/// Segments without a 3D position followed from keyframe to keyframe until they can be
+/// triangulated: for each keyframe, per line, the keyframe and line index where its track
+/// started ({kNoId, -1}: none). Only the mapping thread uses it.
+using LineTracks = std::unordered_map<KeyframeId, std::vector<std::pair<KeyframeId, int>>>;
+
 /// Everything a step needs.
 struct Context {
   StereoCamera camera;
   MappingOptions options;
   MappingFrontEnd front_end;
   Map* map = nullptr;
+  LineTracks* line_tracks = nullptr;  ///< owned by LocalMapper; null: no line triangulation
 };
+
+/// Two-view triangulation of a segment neither view has a stereo depth for (one nearly along
+/// the image rows, as a skirting board or a door lintel seen head-on): the 3D line lies in the
+/// plane through each camera centre and its image line; the newer view b's endpoints are cast
+/// onto the older view a's plane. False when the planes meet at less than `min_angle_rad`
+/// (too little parallax: the depth would be noise), an endpoint lands behind either camera or
+/// beyond `max_depth` (m), or the result does not overlap a's segment.
+bool TriangulateLine(const StereoCamera& cam, const SE3& T_w_a, const LineFeature& a,
+                     const SE3& T_w_b, const LineFeature& b, double min_angle_rad, double max_depth,
+                     Eigen::Vector3d* P_w, Eigen::Vector3d* Q_w);
 
 /// Inserts the keyframe: pose refinement against the previous keyframe, observations of
 /// existing landmarks (tracking's associations, previous-keyframe matches, local-map search)

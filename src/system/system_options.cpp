@@ -197,6 +197,12 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.refine_max_correction", &mp.refine_max_correction,
         "largest accepted refinement of a keyframe pose, m");
   t.Add("mapping.search_radius", &mp.search_radius, "local-map search radius, px");
+  t.Add("mapping.line_triangulation_min_angle_deg", &mp.line_triangulation_min_angle_deg,
+        "segments without stereo depth seen by two keyframes are triangulated when their planes "
+        "meet at this angle or more, deg (0 = off)");
+  t.Add("mapping.line_triangulation_max_depth_baselines",
+        &mp.line_triangulation_max_depth_baselines,
+        "farthest such triangulated segment, in baselines");
   t.Add("mapping.local_map_keyframes", &mp.local_map_keyframes,
         "covisible keyframes whose landmarks form the local map");
   t.Add("mapping.cull_after_keyframes", &mp.cull_after_keyframes,
