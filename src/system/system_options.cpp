@@ -199,7 +199,7 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.search_radius", &mp.search_radius, "local-map search radius, px");
   t.Add("mapping.line_triangulation_min_angle_deg", &mp.line_triangulation_min_angle_deg,
         "segments without stereo depth seen by two keyframes are triangulated when their planes "
-        "meet at this angle or more, deg (0 = off)");
+        "meet at this angle or more, deg (0 = off; 2 lowers ATE in low-texture scenes)");
   t.Add("mapping.line_triangulation_max_depth_baselines",
         &mp.line_triangulation_max_depth_baselines,
         "farthest such triangulated segment, in baselines");

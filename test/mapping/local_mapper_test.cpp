@@ -155,10 +155,8 @@ TEST(LocalMapperTest, KeyframesWhenMappingIsIdle) {
 
 // Lines only, the corridor makes a keyframe at almost every frame (fewer than 40 inliers), and
 // each new keyframe sees most landmarks of the few before it. Culling those as soon as that
-// happens leaves 22 of 260 keyframes and an ATE close to visual odometry's (3.9 against 4.0
-// mm; twice it before segments along the rows were triangulated from two keyframes); keeping
-// the newest (mapping.cull_keep_newest) gives 2.1 mm and still culls most keyframes once they
-// are behind the camera.
+// happens left 20 of 260 keyframes and an ATE twice visual odometry's; keeping the newest
+// (mapping.cull_keep_newest) still culls most keyframes once they are behind the camera.
 TEST(LocalMapperTest, CullingKeepsTheNewestKeyframes) {
   const auto kCorridor = sim::SceneKind::kCorridor;
   constexpr int kFrames = 300;
@@ -179,7 +177,7 @@ TEST(LocalMapperTest, CullingKeepsTheNewestKeyframes) {
   std::cout << "corridor, lines only: VO " << odometry.ate * 1e3 << " mm; map, newest culled "
             << describe(culled_early) << "; newest 20 kept " << describe(kept) << "\n";
   EXPECT_EQ(kept.trajectory.size(), static_cast<size_t>(kFrames));
-  EXPECT_LT(kept.ate, 0.6 * culled_early.ate);
+  EXPECT_LT(kept.ate, 0.5 * culled_early.ate);
   EXPECT_LT(kept.ate, 0.8 * odometry.ate);
   // Culling still bounds the map: most keyframes go.
   EXPECT_GT(kept.stats.keyframes_culled, kept.stats.keyframes_processed / 2);
