@@ -520,7 +520,7 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("")
 
     # (g) the street family.
-    L.extend(bench_page_street.street_lines(street))
+    L.extend(bench_page_street.street_lines(bo, street))
 
     # (h) design decisions.
     add("## Design decisions")

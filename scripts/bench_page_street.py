@@ -20,7 +20,6 @@ import argparse
 import datetime
 import os
 import re
-import statistics
 import subprocess
 
 FAMILY = "street"
@@ -37,11 +36,6 @@ LIVE = ("street_straight", 1)
 ATE = "%.4f"  # metres
 FEATURES = ("points, one surface", "points near an occlusion", "line endpoints, steep",
             "line endpoints, shallow")
-
-
-def nan_median(values):
-    v = [x for x in values if x == x]
-    return statistics.median(v) if v else float("nan")
 
 
 def fmt(v, pattern):
@@ -152,7 +146,7 @@ def ok(r):
     return r is not None and not r["failed"]
 
 
-def target_rows(rows, set_name):
+def target_rows(bo, rows, set_name):
     """Table rows and misses (lines) of the four targets on one set of layouts."""
     table, misses = [], []
     by = {(r["system"], r["mode"], r["layout"], r["seed"]): r for r in rows if r["set"] == set_name}
@@ -196,8 +190,8 @@ def target_rows(rows, set_name):
         if not pairs:
             continue
         meet = {k for k, a, b in pairs if ok(a) and (not ok(b) or a["ate"] <= b["ate"])}
-        med_a = nan_median([a["ate"] for _, a, _ in pairs if ok(a)])
-        med_b = nan_median([b["ate"] for _, _, b in pairs if ok(b)])
+        med_a = bo.median([a["ate"] for _, a, _ in pairs if ok(a)])
+        med_b = bo.median([b["ate"] for _, _, b in pairs if ok(b)])
         better = med_a < med_b
         figures = "median %s against %s m" % (fmt(med_a, ATE), fmt(med_b, ATE))
         missed = ["%s %s against %s m" % (run_name(a), fmt(a["ate"], ATE) if ok(a) else "failed",
@@ -353,7 +347,7 @@ def lost_line(rows):
                                  "none; every run has a pose for every frame")
 
 
-def street_lines(street):
+def street_lines(bo, street):
     """The street section of the page (Markdown lines); street is run_street's result."""
     L = ["## Street family", ""]
     if not street:
@@ -381,7 +375,7 @@ def street_lines(street):
           "|---|---|---|---|---|---|"]
     misses = []
     for set_name in ("tuning", "held-out"):
-        t, m = target_rows(rows, set_name)
+        t, m = target_rows(bo, rows, set_name)
         L += t
         misses += m
     L += [""]

@@ -80,10 +80,7 @@ LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures&
                                const LocalMap& local, const SE3& T_w_c_prior,
                                const MappingOptions& options, const MappingFrontEnd& front_end,
                                const LocalMapGate* gate) {
-  LocalMapGate own;
-  own.min_inliers = options.track_min_inliers;
-  own.max_correction = options.track_max_correction;
-  own.max_correction_deg = options.track_max_correction_deg;
+  const LocalMapGate own = LocalMapGate::Of(options);
   if (!gate) gate = &own;
   LocalMapTracking result;
   result.T_w_c = T_w_c_prior;

@@ -283,10 +283,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
       const TrackerOptions& to = s.options.tracker;
       const bool relaxed = r.predicted && to.relaxed_min_inliers > 0 &&
                            to.relaxed_min_inliers < s.options.mapping.track_min_inliers;
-      LocalMapGate gate;
-      gate.min_inliers = s.options.mapping.track_min_inliers;
-      gate.max_correction = s.options.mapping.track_max_correction;
-      gate.max_correction_deg = s.options.mapping.track_max_correction_deg;
+      LocalMapGate gate = LocalMapGate::Of(s.options.mapping);
       if (relaxed) {
         gate.min_inliers = to.relaxed_min_inliers;
         gate.max_correction = std::max(gate.max_correction, to.relaxed_max_deviation);

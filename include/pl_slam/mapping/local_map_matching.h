@@ -50,9 +50,14 @@ struct LocalMapTracking {
 
 /// What TrackLocalMap accepts: fewest inliers and largest correction of the prior.
 struct LocalMapGate {
-  int min_inliers = 20;
-  double max_correction = 0.02;  ///< metres
-  double max_correction_deg = 0.25;
+  int min_inliers = 0;
+  double max_correction = 0.0;  ///< metres
+  double max_correction_deg = 0.0;
+  /// The tracking gate of the options: track_min_inliers, track_max_correction(_deg).
+  static LocalMapGate Of(const MappingOptions& options) {
+    return {options.track_min_inliers, options.track_max_correction,
+            options.track_max_correction_deg};
+  }
 };
 
 /// Refines T_w_c_prior by matching the frame's features to the local map and running the
