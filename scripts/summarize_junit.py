@@ -1,10 +1,26 @@
 #!/usr/bin/env python3
 """Prints the closing line of the test run, 'tests: N passed, N failed, N skipped', from
-the JUnit XML files catkin/rostest write. Exits 1 when no test ran at all."""
+the JUnit XML files catkin/rostest write, after the name and the first lines of the message of
+every failed test case (so a CI log's tail says what failed). Exits 1 when no test ran at all."""
 import glob
 import os
 import sys
 import xml.etree.ElementTree as ET
+
+
+MESSAGE_LINES = 12
+
+
+def describe(path, case):
+    """'FAILED name (file): message', the message cut to its first MESSAGE_LINES lines."""
+    bad = case.find("failure")
+    if bad is None:
+        bad = case.find("error")
+    text = "\n".join(filter(None, [bad.get("message", ""), bad.text or ""])).strip()
+    lines = [l for l in text.splitlines() if l.strip()][:MESSAGE_LINES]
+    name = ".".join(filter(None, [case.get("classname", ""), case.get("name", "")]))
+    return "FAILED %s (%s)\n%s" % (name, os.path.basename(path),
+                                   "\n".join("    " + l for l in lines))
 
 
 def main(root):
@@ -24,6 +40,7 @@ def main(root):
                 continue
             if case.find("failure") is not None or case.find("error") is not None:
                 failed += 1
+                print(describe(path, case))
             elif case.find("skipped") is not None or case.get("status") == "notrun":
                 skipped += 1
             else:

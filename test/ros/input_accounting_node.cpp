@@ -2,6 +2,7 @@
 // back (far faster than the worker processes them), with lone left and right images and pairs
 // of the wrong size among them; ~status and /diagnostics must count exactly what was sent as
 // received, and every image received as processed, dropped, rejected or unpaired.
+#include <cstdio>
 #include <map>
 #include <mutex>
 #include <string>
@@ -73,6 +74,16 @@ TEST(InputAccounting, EveryImageOfBurstyInputIsCounted) {
                Value("right images waiting") == 0 && Value("pairs in progress") == 0;
       },
       30.0);
+  // The diagnostics can count the last frame processed before its status message is out (the
+  // worker publishes the status after the pose and TF): wait for that message too.
+  const bool last_status = pl_slam::testing_util::WaitFor(
+      [&] {
+        const long processed = Value("frames processed");
+        std::lock_guard<std::mutex> lock(h->mutex);
+        return !h->statuses.empty() &&
+               static_cast<long>(h->statuses.back().frame_index) == processed;
+      },
+      10.0);
   const long processed = Value("frames processed"),
              dropped = Value("frames dropped (worker behind)"),
              rejected = Value("frames rejected (bad input)");
@@ -80,11 +91,17 @@ TEST(InputAccounting, EveryImageOfBurstyInputIsCounted) {
              right_received = Value("right images received");
   const long left_unpaired = Value("left images unpaired"),
              right_unpaired = Value("right images unpaired");
-  std::printf(
+  char counts[400];
+  std::snprintf(
+      counts, sizeof(counts),
       "sent %u left, %u right (%u lone left, %u lone right, %u bad pairs); received %ld left, "
-      "%ld right; processed %ld, dropped %ld, rejected %ld, unpaired %ld left, %ld right\n",
+      "%ld right; processed %ld, dropped %ld, rejected %ld, unpaired %ld left, %ld right; "
+      "waiting %ld left, %ld right; in progress %ld",
       sent_left, sent_right, lone_left, lone_right, bad_pairs, left_received, right_received,
-      processed, dropped, rejected, left_unpaired, right_unpaired);
+      processed, dropped, rejected, left_unpaired, right_unpaired, Value("left images waiting"),
+      Value("right images waiting"), Value("pairs in progress"));
+  std::printf("%s\n", counts);
+  SCOPED_TRACE(counts);  // every failure below says what the counts were
   ASSERT_TRUE(settled) << "the diagnostics never showed every image sent as received and "
                           "accounted for";
   EXPECT_EQ(left_received, processed + dropped + rejected + left_unpaired);
@@ -99,6 +116,7 @@ TEST(InputAccounting, EveryImageOfBurstyInputIsCounted) {
   EXPECT_GT(rejected, 0);
   EXPECT_LE(rejected, bad_pairs);
   // Every status message balances on its own (one snapshot per message).
+  EXPECT_TRUE(last_status) << "no status message for the last frame processed";
   std::lock_guard<std::mutex> lock(h->mutex);
   ASSERT_FALSE(h->statuses.empty());
   for (const auto& s : h->statuses) {
