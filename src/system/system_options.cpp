@@ -29,6 +29,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "largest accepted frame-to-frame rotation, deg");
   t.Add("tracker.line_weight", &tr.line_weight,
         "information of a line residual relative to a point's");
+  t.Add("tracker.depth_noise", &tr.depth_noise,
+        "disparity noise of stereo features relative to their pixel noise, weighting "
+        "residuals by their depth error under the motion (0 = depths exact, off)");
   t.Add("tracker.track_keyframe", &tr.track_keyframe,
         "refine each pose against the last keyframe (errors add up per keyframe, not per frame)");
   t.Add("tracker.keyframe_min_inlier_ratio", &tr.keyframe_min_inlier_ratio,

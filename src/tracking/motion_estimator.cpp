@@ -77,16 +77,61 @@ struct Normal {
   int residuals = 0;              // scalar residuals that took part
 };
 
+// How far the projection of P_prev under T moves per pixel of disparity error, times the
+// relative depth noise k: d pi(T P(d)) / d d with P(d) = P * Z(d) / Z and Z = fx b / (d + doffs),
+// so dP / dd = -P Z / (fx b).
+inline Eigen::Vector2d DepthShift(const StereoCamera& cam, const SE3& T,
+                                  const Eigen::Vector3d& P_prev, double k) {
+  if (!(P_prev.z() > 0.0) || !(cam.baseline > 0.0)) return Eigen::Vector2d::Zero();
+  const Eigen::Vector3d X = T * P_prev;
+  const double iz = 1.0 / X.z();
+  const Eigen::Vector3d dX = T.so3() * P_prev * (-k * P_prev.z() / (cam.fx * cam.baseline));
+  return {cam.fx * iz * (dX.x() - X.x() * iz * dX.z()),
+          cam.fy * iz * (dX.y() - X.y() * iz * dX.z())};
+}
+
+// Whitens a point residual (and its Jacobian) whose covariance, relative to its own noise
+// without depth error, is I + g g^T (depth_noise is relative to the feature's own precision, so
+// the match's weight does not enter): W = I - c g g^T / |g|^2, c = 1 - 1 / sqrt(1 + |g|^2).
+inline void WhitenAlong(const Eigen::Vector2d& g, Eigen::Vector2d* r, Matrix26d* J) {
+  const double g2 = g.squaredNorm();
+  if (!(g2 > 1e-12)) return;
+  const double c = (1.0 - 1.0 / std::sqrt(1.0 + g2)) / g2;
+  *r -= c * g * g.dot(*r);
+  if (J != nullptr) J->noalias() -= c * g * (g.transpose() * *J);
+}
+
 // Point and line residual of correspondence i at T; false when it cannot be evaluated.
 inline bool PointResidual(const Problem& p, const SE3& T, std::size_t i, Eigen::Vector2d* r,
                           Matrix26d* J) {
   const PointMatch3D2D& m = p.points[i];
-  return PointResidualAndJacobian(p.cam, T, m.P_prev, m.uv_cur, p.opt.min_depth, r, J);
+  if (!PointResidualAndJacobian(p.cam, T, m.P_prev, m.uv_cur, p.opt.min_depth, r, J)) {
+    return false;
+  }
+  if (m.depth_noise > 0.0) WhitenAlong(DepthShift(p.cam, T, m.P_prev, m.depth_noise), r, J);
+  return true;
 }
 inline bool LineResidual(const Problem& p, const SE3& T, std::size_t i, Eigen::Vector2d* r,
                          Matrix26d* J) {
   const LineMatch3D2D& m = p.lines[i];
-  return LineResidualAndJacobian(p.cam, T, m.P_prev, m.Q_prev, p.l[i], p.opt.min_depth, r, J);
+  if (!LineResidualAndJacobian(p.cam, T, m.P_prev, m.Q_prev, p.l[i], p.opt.min_depth, r, J)) {
+    return false;
+  }
+  if (m.depth_noise > 0.0) {
+    // Each endpoint's distance to the line moves by n . g per pixel of disparity error.
+    const Eigen::Vector2d n = p.l[i].head<2>();
+    const double gp = n.dot(DepthShift(p.cam, T, m.P_prev, m.depth_noise));
+    const double gq = n.dot(DepthShift(p.cam, T, m.Q_prev, m.depth_noise));
+    const double fp = 1.0 / std::sqrt(1.0 + gp * gp);
+    const double fq = 1.0 / std::sqrt(1.0 + gq * gq);
+    (*r)(0) *= fp;
+    (*r)(1) *= fq;
+    if (J != nullptr) {
+      J->row(0) *= fp;
+      J->row(1) *= fq;
+    }
+  }
+  return true;
 }
 
 // Linearises every active correspondence at T (H and g only when `jacobians`).
@@ -348,10 +393,12 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
   p.l.resize(lines.size(), Eigen::Vector3d::Zero());
   int usable = 0;
   auto weight_ok = [](double w) { return std::isfinite(w) && w > 0.0; };
+  auto noise_ok = [](double k) { return std::isfinite(k) && k >= 0.0; };
   if (options.use_points) {
     for (std::size_t i = 0; i < points.size(); ++i) {
       const PointMatch3D2D& m = points[i];
-      p.point_active[i] = m.P_prev.allFinite() && m.uv_cur.allFinite() && weight_ok(m.weight);
+      p.point_active[i] = m.P_prev.allFinite() && m.uv_cur.allFinite() && weight_ok(m.weight) &&
+                          noise_ok(m.depth_noise);
       usable += p.point_active[i];
     }
   }
@@ -360,7 +407,7 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
       const LineMatch3D2D& m = lines[i];
       const double norm = m.l_cur.head<2>().norm();
       const bool ok = m.P_prev.allFinite() && m.Q_prev.allFinite() && m.l_cur.allFinite() &&
-                      norm > 1e-12 && weight_ok(m.weight);
+                      norm > 1e-12 && weight_ok(m.weight) && noise_ok(m.depth_noise);
       if (ok) p.l[i] = m.l_cur / norm;
       p.line_active[i] = ok;
       usable += ok;

@@ -42,6 +42,8 @@ std::string TrackerOptions::Validate() const {
     os << "max_rotation_deg=" << max_rotation_deg << " must be in (0, 180]";
   else if (!(line_weight > 0.0 && line_weight <= 100.0))
     os << "line_weight=" << line_weight << " must be in (0, 100]";
+  else if (!(depth_noise >= 0.0 && depth_noise <= 10.0))
+    os << "depth_noise=" << depth_noise << " must be in [0, 10]";
   else if (!(keyframe_min_inlier_ratio >= 0.0 && keyframe_min_inlier_ratio <= 100.0))
     os << "keyframe_min_inlier_ratio=" << keyframe_min_inlier_ratio << " must be in [0, 100]";
   else if (!(keyframe_max_correction > 0.0 && keyframe_max_correction <= 100.0))
@@ -177,6 +179,7 @@ struct StereoTracker::Impl {
       m.uv_cur = cur.points[j].uv;
       // Keypoints of coarser pyramid levels are localised less precisely.
       m.weight = std::pow(options.points.scale_factor, -2.0 * cur.points[j].octave);
+      m.depth_noise = options.depth_noise;
       pm.push_back(m);
       points_cur.push_back(cur.points[j].has_depth ? cur.points[j].p_c : kUnknown);
     }
@@ -188,6 +191,8 @@ struct StereoTracker::Impl {
       m.Q_prev = lr.Q_c;
       m.l_cur = cur.lines[j].l;
       m.weight = options.line_weight;
+      // Endpoint disparities come from crossing the image rows: the flatter, the noisier.
+      m.depth_noise = options.depth_noise / std::max(std::abs(std::sin(lr.angle)), 0.1);
       lm.push_back(m);
       const LineFeature& lc = cur.lines[j];
       lines_cur_P.push_back(lc.has_depth ? lc.P_c : kUnknown);

@@ -1,4 +1,7 @@
 // Bad frames must give a warning and a lost/not-initialised status, never a crash or a NaN pose.
+#include <cmath>
+#include <string>
+
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
@@ -36,6 +39,16 @@ TEST(SlamSystemBadInput, InvalidConfigurationIsRefused) {
     FAIL();
   } catch (const ConfigError& e) {
     EXPECT_NE(std::string(e.what()).find("max_points"), std::string::npos);
+  }
+  for (const double noise : {-0.5, 11.0, std::nan("")}) {
+    SystemOptions o;
+    o.tracker.depth_noise = noise;
+    try {
+      SlamSystem s(Camera(), o);
+      ADD_FAILURE() << "depth_noise=" << noise << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("depth_noise"), std::string::npos) << e.what();
+    }
   }
 }
 

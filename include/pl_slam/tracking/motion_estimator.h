@@ -35,6 +35,15 @@ struct PointMatch3D2D {
   /// octave): the residual is scaled by sqrt(weight) before the loss and the outlier test, so
   /// thresholds stay in "nominal pixels". Must be finite and > 0 (else the match is ignored).
   double weight = 1.0;
+  /// Depth noise of P_prev: the standard deviation of the disparity it was triangulated from,
+  /// relative to the residual's own noise at zero motion. 0 (the default) takes the depth as
+  /// exact (landmarks refined over many views); 1 suits a one-frame stereo point (disparity and
+  /// residual are both the difference of two pixel measurements). When > 0, the residual is
+  /// whitened along the direction a depth error moves the projection under T, so that under
+  /// forward motion the points far from the image centre, whose projection a depth error
+  /// shifts most, weigh less; at zero motion it changes nothing. Must be finite and >= 0 (else
+  /// the match is ignored).
+  double depth_noise = 0.0;
 };
 
 /// A previous-frame 3D segment (endpoints P, Q) observed as a current-frame infinite line.
@@ -46,6 +55,10 @@ struct LineMatch3D2D {
   /// l(0)^2 + l(1)^2 = 1 (LineFeature::l already is); a line with l(0) = l(1) = 0 is ignored.
   Eigen::Vector3d l_cur = Eigen::Vector3d::Zero();
   double weight = 1.0;  ///< relative information, as PointMatch3D2D::weight
+  /// Depth noise of both endpoints, as PointMatch3D2D::depth_noise (the distance of each
+  /// projected endpoint to the line is whitened); 1 / |sin| of the segment's angle to the image
+  /// rows for a stereo segment, whose endpoint disparities come from crossing the rows.
+  double depth_noise = 0.0;
 };
 
 /// Point correspondences in an aligned container (fixed-size Eigen members).

@@ -49,6 +49,13 @@ struct TrackerOptions {
   /// corner's position: 8 was best of 1/3/5/8 on four of the five benchmark sequences and
   /// neutral on EuRoC (docs/BENCHMARKS.md, "Line weight").
   double line_weight = 8.0;
+  /// Standard deviation of a stereo feature's disparity relative to the frame-to-frame
+  /// residual's noise, propagated into the motion estimate (PointMatch3D2D::depth_noise): a
+  /// residual weighs less along the direction its depth error moves it, which under forward
+  /// motion is the features far from the image centre. Lines use it divided by |sin| of their
+  /// angle to the image rows. 0 (the default) takes stereo depths as exact: 1 and 0.3 did not
+  /// lower the street family's VO error (docs/BENCHMARKS.md, "Design decisions").
+  double depth_noise = 0.0;
   /// Refine each frame-to-frame pose against the last keyframe: the keyframe's stereo
   /// features are matched to the frame directly and the pose re-estimated from them, so
   /// errors add up per keyframe instead of per frame.
