@@ -9,22 +9,15 @@
 #include <gtest/gtest.h>
 
 #include "pl_slam/tracking/motion_estimator.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-StereoCamera DrivingCamera() {
-  StereoCamera cam;
-  cam.fx = cam.fy = 718.0;
-  cam.cx = 620.0;
-  cam.cy = 187.0;
-  cam.baseline = 0.54;
-  cam.width = 1241;
-  cam.height = 376;
-  return cam;
-}
+// KITTI's camera: 1241 x 376, f = 718 px, b = 0.54 m.
+StereoCamera DrivingCamera() { return testing_util::CenteredCamera(718.0, 0.54, 1241, 376); }
 
 Eigen::Vector3d LineThrough(const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
   const Eigen::Vector3d l =
