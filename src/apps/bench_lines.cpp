@@ -38,7 +38,8 @@ constexpr char kUsage[] =
     "usage: pl_slam_bench_lines [--data DIR] [--gt DIR] [--sim room|corridor] [--recall SCENE]\n"
     "                           [options]\n"
     "  --recall SCENE      recall / precision against a lowtex scene's structural edges\n"
-    "                      (every 5th frame; --bare, --seeds 1,2,3, --frames N = whole walk)\n"
+    "                      (every 5th frame; --bare, --seeds 1,2,3, --frames N = whole walk,\n"
+    "                      --exposure normal|dim|bright)\n"
     "  --frames N          frames for timing / simulation (default 100 / 40)\n"
     "  --detector edge|lsd segment detector (default edge)\n"
     "  --max-lines N       lines kept per image (default: detector default)\n"
@@ -508,8 +509,8 @@ double Overlap(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::
   return std::max(0.0, hi - lo);
 }
 
-void RunRecall(const std::string& scene, bool bare, const std::vector<int>& seeds, int frames,
-               const pl_slam::LineMatchingOptions& match,
+void RunRecall(const std::string& scene, bool bare, const std::string& exposure,
+               const std::vector<int>& seeds, int frames, const pl_slam::LineMatchingOptions& match,
                const std::vector<std::pair<std::string, pl_slam::LineDetectorOptions>>& configs) {
   const double min_sin = std::sin(match.min_stereo_angle_deg * M_PI / 180.0);
   std::vector<Eigen::Vector3d, Eigen::aligned_allocator<Eigen::Vector3d>> pts;
@@ -520,6 +521,7 @@ void RunRecall(const std::string& scene, bool bare, const std::vector<int>& seed
     so.bare = bare;
     so.world_seed = static_cast<uint64_t>(seed);
     so.num_frames = frames;
+    pl_slam::sim::ApplyExposurePreset(exposure, &so);
     const pl_slam::sim::SyntheticSequence seq(so);
     for (int i = 0; i < static_cast<int>(seq.size()); i += 5) {
       const pl_slam::StereoFrame frame = seq.Render(i);
@@ -586,7 +588,8 @@ int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(
       argc, argv,
       {"data", "gt", "sim", "frames", "detector", "max-lines", "min-length", "stereo-ratio",
-       "f2f-ratio", "max-distance", "min-stereo-angle", "opencv-threads", "recall", "seeds"},
+       "f2f-ratio", "max-distance", "min-stereo-angle", "opencv-threads", "recall", "seeds",
+       "exposure"},
       {"no-merge", "help", "bare"});
   if (cl.Has("help")) {
     std::cout << kUsage;
@@ -631,7 +634,8 @@ int Run(int argc, char** argv) {
     single.min_lines = 0;
     pl_slam::LineDetectorOptions lsd = setup.det;
     lsd.detector = pl_slam::LineDetectorKind::kLsd;
-    RunRecall(cl.Get("recall", ""), cl.Has("bare"), seeds, cl.GetInt("frames", 0), setup.match,
+    RunRecall(cl.Get("recall", ""), cl.Has("bare"), cl.Get("exposure", "normal"), seeds,
+              cl.GetInt("frames", 0), setup.match,
               {{"edge chain (default: low-contrast search below min_lines)", setup.det},
                {"edge chain, normal thresholds only", single},
                {"LSD", lsd}});

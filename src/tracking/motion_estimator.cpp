@@ -200,7 +200,14 @@ bool Optimize(const Problem& p, SE3* T, int* iterations, std::string* failure) {
     Matrix6d A = n.H;
     const double floor = 1e-12 * std::max(n.H.diagonal().maxCoeff(), 1e-300);
     for (int k = 0; k < 6; ++k) A(k, k) += lambda * (n.H(k, k) + floor);
-    const Vector6d step = A.ldlt().solve(-n.g);
+    Vector6d step;
+    if (opt.rotation_only) {
+      // A left rotation keeps the camera centre (-R^T t) where it is.
+      step.head<3>().setZero();
+      step.tail<3>() = A.bottomRightCorner<3, 3>().ldlt().solve(-n.g.tail<3>());
+    } else {
+      step = A.ldlt().solve(-n.g);
+    }
     if (!step.allFinite()) {
       lambda *= 10.0;
       if (lambda > kMaxLambda) break;
@@ -445,6 +452,13 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
 
   Normal n;
   Accumulate(p, T, true, &n);
+  if (options.rotation_only) {
+    // Only the rotation block is estimated: the translation rows and columns carry nothing.
+    n.H.topRows<3>().setZero();
+    n.H.leftCols<3>().setZero();
+    n.H.topLeftCorner<3, 3>().setIdentity();
+  }
+  const int unknowns = options.rotation_only ? 3 : 6;
   // Observability on the Jacobi-normalised Hessian: unit diagonal, so the eigenvalues compare
   // metres and radians on an equal footing.
   const Vector6d diag = n.H.diagonal();
@@ -466,8 +480,9 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
   // Sec. 7.6): the estimate's covariance is the sandwich A^-1 B A^-1 with A ~ c2 H0 (true
   // curvature of the robust cost), B ~ E[rho'^2 s] H0 (spread of the influence) and
   // H = c1 H0 (the IRLS Hessian). Hence cov = sigma^2 H^-1 with sigma^2 = E[rho'^2 s] c1 / c2^2.
-  // On clean data rho' -> 1 and this is the least-squares sum s / (m - 6); unlike
-  // sum rho' s / (m - 6) it stays consistent when the noise is comparable to huber_delta_px.
+  // On clean data rho' -> 1 and this is the least-squares sum s / (m - 6) (m - 3 for the
+  // rotation alone); unlike sum rho' s / (m - 6) it stays consistent when the noise is
+  // comparable to huber_delta_px.
   const int m = n.residuals;
   const double count = 0.5 * m;
   const double c1 = n.sum_weight / count;
@@ -476,7 +491,7 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
   const double keep =
       (out.point_inliers * p.point_threshold.keep + out.line_inliers * p.line_threshold.keep) /
       std::max(1, out.point_inliers + out.line_inliers);
-  const double var = m > 6 ? n.psi_sq / (m - 6) * c1 / (c2 * c2) / keep : 0.0;
+  const double var = m > unknowns ? n.psi_sq / (m - unknowns) * c1 / (c2 * c2) / keep : 0.0;
   out.sigma_px = std::max(std::sqrt(var), options.min_sigma_px);
   out.rmse_px = m > 0 ? std::sqrt(n.sq / m) : 0.0;
   // H^-1 = D^-1/2 N^-1 D^-1/2, through the eigenvectors of the well-scaled N.
@@ -485,6 +500,10 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
   Matrix6d cov =
       out.sigma_px * out.sigma_px * (inv_sqrt.asDiagonal() * N_inv * inv_sqrt.asDiagonal());
   cov = 0.5 * (cov + cov.transpose()).eval();
+  if (options.rotation_only) {
+    cov.topRows<3>().setZero();
+    cov.leftCols<3>().setZero();
+  }
   const Matrix6d Ad = T.inverse().Adjoint();
   Matrix6d cov_inv = Ad * cov * Ad.transpose();
   cov_inv = 0.5 * (cov_inv + cov_inv.transpose()).eval();

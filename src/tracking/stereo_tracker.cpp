@@ -58,6 +58,8 @@ std::string TrackerOptions::Validate() const {
     os << "relaxed_max_deviation_deg=" << relaxed_max_deviation_deg << " must be in (0, 90]";
   else if (max_predicted_frames < 0 || max_predicted_frames > 1000)
     os << "max_predicted_frames=" << max_predicted_frames << " must be in [0, 1000]";
+  else if (lost_rotation_min_inliers < 0 || lost_rotation_min_inliers > 1000)
+    os << "lost_rotation_min_inliers=" << lost_rotation_min_inliers << " must be in [0, 1000]";
   if (!os.str().empty()) return os.str();
   const std::pair<const char*, std::string> nested[] = {
       {"points.", points.Validate()},      {"point_matching.", point_matching.Validate()},
@@ -129,6 +131,8 @@ struct StereoTracker::Impl {
 
   struct Estimation {
     MotionEstimate est;
+    PointMatches3D2D points;  // the correspondences the estimate was given
+    LineMatches3D2D lines;
     bool consensus_agreed = false;  // the hypothesis stage found a motion RelaxedFloor() support
     int point_matches = 0, line_matches = 0;
     double matching_ms = 0.0, motion_ms = 0.0;
@@ -217,8 +221,32 @@ struct StereoTracker::Impl {
       }
     }
     out.est = EstimateMotion(camera, pm, lm, start, options.motion);
+    out.points = std::move(pm);
+    out.lines = std::move(lm);
     out.motion_ms = MsSince(t0);
     return out;
+  }
+
+  /// The rotation of a frame too poor for a whole estimate, about the camera centre the
+  /// motion model predicts (`predicted`, T_cur_prev): its correspondences fitted for the
+  /// rotation alone. Kept with lost_rotation_min_inliers, a rotation standard deviation within
+  /// relaxed_max_deviation_deg and a turn within max_rotation_deg of the prediction.
+  bool RotationAbout(const Estimation& f2f, const SE3& predicted, SE3* T_cur_prev) const {
+    if (options.lost_rotation_min_inliers <= 0 ||
+        static_cast<int>(f2f.points.size() + f2f.lines.size()) < options.lost_rotation_min_inliers)
+      return false;
+    MotionEstimatorOptions rot = options.motion;
+    rot.rotation_only = true;
+    rot.min_inliers = options.lost_rotation_min_inliers;
+    const MotionEstimate est = EstimateMotion(camera, f2f.points, f2f.lines, predicted, rot);
+    if (!est.success) return false;
+    const double max_sigma = options.relaxed_max_deviation_deg * M_PI / 180.0;
+    if (!(est.covariance.bottomRightCorner<3, 3>().diagonal().maxCoeff() <= max_sigma * max_sigma))
+      return false;
+    const SE3 change = est.T_cur_prev * predicted.inverse();
+    if (change.RotationAngle() * 180.0 / M_PI > options.max_rotation_deg) return false;
+    *T_cur_prev = est.T_cur_prev;
+    return true;
   }
 
   /// Fewest inliers any gate keeps: relaxed_min_inliers when the relaxed gate is on.
@@ -500,7 +528,17 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       result.T_prev_cur = T_prev_cur;
       result.covariance_prev_cur = f2f.est.covariance_prev_cur;
     } else if (s.velocity_valid && s.predicted_frames < s.options.max_predicted_frames) {
-      const SE3 T_prev_cur = s.velocity_cur_prev.inverse();
+      SE3 T_prev_cur = s.velocity_cur_prev.inverse();
+      // The matches, too few for the whole motion, may still hold the rotation: the position
+      // follows the model, the orientation what the frame sees (only when the frame it was
+      // matched to is the last one: no featureless frame came between).
+      SE3 T_cur_prev;
+      if (s.has_previous && s.frames_since_previous == 1 &&
+          s.RotationAbout(f2f, prior, &T_cur_prev)) {
+        T_prev_cur = T_cur_prev.inverse();
+        result.rotation_measured = true;
+        s.velocity_cur_prev = T_cur_prev;
+      }
       s.T_w_c = s.T_w_c * T_prev_cur;
       ++s.predicted_frames;
       result.predicted = true;

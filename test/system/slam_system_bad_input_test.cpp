@@ -50,6 +50,17 @@ TEST(SlamSystemBadInput, InvalidConfigurationIsRefused) {
       EXPECT_NE(std::string(e.what()).find("depth_noise"), std::string::npos) << e.what();
     }
   }
+  for (const int n : {-1, 1001}) {
+    SystemOptions o;
+    o.tracker.lost_rotation_min_inliers = n;
+    try {
+      SlamSystem s(Camera(), o);
+      ADD_FAILURE() << "lost_rotation_min_inliers=" << n << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("lost_rotation_min_inliers"), std::string::npos)
+          << e.what();
+    }
+  }
 }
 
 TEST(SlamSystemBadInput, EmptyUniformMismatchedAndWrongTypeFrames) {

@@ -504,6 +504,46 @@ TEST(MotionEstimator, ConvergesFromAFarPrior) {
   EXPECT_LT(err.deg, 0.1);
 }
 
+// rotation_only: from a prior with the true camera centre and a rotation 8 degrees off, a few
+// correspondences (some wrong) give the rotation; the centre stays the prior's and the
+// covariance has no translation part. With the centre 3 cm off the rotation is still within
+// a degree, while a full estimate from so few would not be trusted.
+TEST(MotionEstimator, RotationOnlyFitsTheRotationAboutThePriorsCentre) {
+  const StereoCamera cam = TestCamera();
+  std::mt19937 rng(11);
+  const SE3 T_true = Motion(0.05, 12.0);
+  SceneSpec spec;
+  spec.num_points = 5;
+  spec.num_lines = 2;
+  spec.noise_px = 0.5;
+  spec.endpoint_slide = 0.2;
+  const Scene s = MakeScene(cam, T_true, spec, &rng);
+  MotionEstimatorOptions opt;
+  opt.rotation_only = true;
+  opt.min_inliers = 4;
+  auto centre = [](const SE3& T_cur_prev) {
+    return (-(T_cur_prev.rotation().transpose() * T_cur_prev.translation())).eval();
+  };
+  // The prior: the true centre, the rotation 8 degrees off about another axis.
+  const Eigen::Vector3d c_true = centre(T_true);
+  const Eigen::Matrix3d R_prior =
+      ExpSO3(8.0 * kDeg * Eigen::Vector3d(1.0, 0.3, 0.2).normalized()) * T_true.rotation();
+  const SE3 prior(R_prior, -R_prior * c_true);
+  MotionEstimate e = EstimateMotion(cam, s.points, s.lines, prior, opt);
+  ASSERT_TRUE(e.success) << e.failure;
+  EXPECT_LT((centre(e.T_cur_prev) - c_true).norm(), 1e-9) << "the centre must not move";
+  EXPECT_LT(Error(e.T_cur_prev, T_true).deg, 0.3);
+  EXPECT_EQ(e.covariance.topRows<3>().norm(), 0.0);
+  EXPECT_GT((e.covariance.bottomRightCorner<3, 3>().trace()), 0.0);
+
+  // The centre 3 cm off: the rotation absorbs part of it.
+  const Eigen::Vector3d c_off = c_true + Eigen::Vector3d(0.03, 0.0, 0.0);
+  e = EstimateMotion(cam, s.points, s.lines, SE3(R_prior, -R_prior * c_off), opt);
+  ASSERT_TRUE(e.success) << e.failure;
+  EXPECT_LT((centre(e.T_cur_prev) - c_off).norm(), 1e-9);
+  EXPECT_LT(Error(e.T_cur_prev, T_true).deg, 1.0);
+}
+
 // A prior 2 m off along the optical axis puts the nearest features behind the camera: they
 // are skipped (not NaN) until the estimate brings them back in front, and the result is exact.
 TEST(MotionEstimator, ConvergesWhenThePriorPutsFeaturesBehindTheCamera) {

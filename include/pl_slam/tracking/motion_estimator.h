@@ -92,6 +92,10 @@ struct MotionEstimatorOptions {
   double min_sigma_px = 0.05;
   bool use_points = true;  ///< use the point correspondences
   bool use_lines = true;   ///< use the line correspondences
+  /// Estimate the rotation only: the current camera centre stays where the prior puts it and
+  /// the orientation about it is fitted (3 unknowns; the covariance's translation block is
+  /// zero). For frames too poor for a full estimate, whose position a motion model gives.
+  bool rotation_only = false;
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;

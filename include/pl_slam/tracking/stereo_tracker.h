@@ -69,6 +69,11 @@ struct TrackerOptions {
   /// rescue against the local map, starts where the camera is likely to be rather than where
   /// it was last seen. 0: stay at the last good pose.
   int max_predicted_frames = 10;
+  /// While the pose follows the motion model, the frame's matches still give its rotation
+  /// about the predicted position when at least this many agree on one (0: the model's
+  /// rotation). A turn does not keep the rate the model extrapolates, and the heading error
+  /// of a gap is what the rest of the trajectory carries.
+  int lost_rotation_min_inliers = 4;
   PointDetectorOptions points;          ///< "points.*"
   PointMatchingOptions point_matching;  ///< "point_matching.*"
   LineDetectorOptions lines;            ///< "lines.*"
@@ -102,6 +107,9 @@ struct TrackerResult {
   /// Lost, and T_w_c is the constant-velocity prediction (covariance_prev_cur is then the
   /// motion model's: the last increment's size as its standard deviation).
   bool predicted = false;
+  /// Predicted, with the rotation measured from the frame's own matches about the predicted
+  /// position (TrackerOptions::lost_rotation_min_inliers).
+  bool rotation_measured = false;
   std::string warning;                                   ///< why tracking failed, when it did
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
 };
