@@ -31,7 +31,6 @@ import datetime
 import json
 import os
 import platform
-import statistics
 import subprocess
 import textwrap
 
@@ -554,7 +553,7 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("")
     add("</details>")
     add("")
-    L.extend(exposure_lines(exposure))
+    L.extend(exposure_lines(bo, exposure))
 
     # (g) the street family.
     L.extend(bench_page_street.street_lines(bo, street))
@@ -573,11 +572,7 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
         f.write("\n".join(wrap(l) for l in L))
 
 
-def mid(values):
-    return statistics.median(values) if values else float("nan")
-
-
-def exposure_lines(exposure):
+def exposure_lines(bo, exposure):
     """The low-texture family at each exposure, points + lines (Markdown lines)."""
     L = ["### Exposure", ""]
     if not exposure or any(k not in exposure for k in EXPOSURES):
@@ -604,7 +599,7 @@ def exposure_lines(exposure):
                 L.append("| %s | %s | %s | %d | %d | %d | %d | %.3f | %.2f | %d |" % (
                     set_name, variant, preset, len(rs), len(rs) - len(ok),
                     sum(r["lost"] for r in ok) + sum(r["frames"] or 0 for r in rs if r["failed"]),
-                    sum(1 for r in rs if r["lost"] > 0 or r["failed"]), mid(ate), mid(ate_pct),
+                    sum(1 for r in rs if r["lost"] > 0 or r["failed"]), bo.median(ate), bo.median(ate_pct),
                     sum(1 for r in rs if r["failed"] or not r["ate_pct"] <= ATE_TARGET_PCT[variant])))
     L.append("")
     # Every run that loses a frame at some exposure, with its lost frames at each.

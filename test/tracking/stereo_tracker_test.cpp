@@ -5,6 +5,7 @@
 // model with the rotation the frame's own matches give.
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -147,6 +148,35 @@ TEST(StereoTrackerTest, APoseCorrectionMovesTheKeyframeReferenceToo) {
   EXPECT_GT(refined_after, 5);
 }
 
+// A blank image (grey 128) with soft round windows onto the rendered view: only a few
+// features remain. The fall-off is smooth, so the windows add few corners of their own.
+class SoftWindows {
+ public:
+  SoftWindows(int w, int h, const std::vector<cv::Point2d>& centres, double radius)
+      : alpha_(h, w, CV_32FC1) {
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x) {
+        double a = 0.0;
+        for (const cv::Point2d& c : centres) {
+          const double r = std::hypot(x - c.x, y - c.y) / radius;
+          a = std::max(a, std::exp(-r * r * r * r));
+        }
+        alpha_.at<float>(y, x) = static_cast<float>(a);
+      }
+  }
+  void Apply(StereoFrame* frame) const {
+    for (cv::Mat* img : {&frame->left, &frame->right}) {
+      cv::Mat f;
+      img->convertTo(f, CV_32FC1);
+      f = f.mul(alpha_) + 128.0f * (1.0f - alpha_);
+      f.convertTo(*img, CV_8UC1);
+    }
+  }
+
+ private:
+  cv::Mat alpha_;
+};
+
 // Frames that cannot be tracked in the middle of a walk (each shows another random pattern:
 // features and stereo depth, but nothing to match): while lost the pose follows the motion
 // model (flagged, not valid), so when the room comes back tracking resumes where the camera
@@ -212,26 +242,7 @@ TEST(StereoTrackerTest, AfterALossAFewFeatureEstimateIsKeptOnceTheNextFrameConfi
   so.scene = sim::SceneKind::kRoom;
   const sim::SyntheticSequence seq(so);
   const int w = seq.camera().width, h = seq.camera().height;
-  // Smooth fall-off, so the windows add few corners of their own.
-  const cv::Point2d centres[] = {{150, 160}, {450, 120}, {330, 350}};
-  cv::Mat alpha(h, w, CV_32FC1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double a = 0.0;
-      for (const cv::Point2d& c : centres) {
-        const double r = std::hypot(x - c.x, y - c.y) / 35.0;
-        a = std::max(a, std::exp(-r * r * r * r));
-      }
-      alpha.at<float>(y, x) = static_cast<float>(a);
-    }
-  auto few = [&](StereoFrame* frame) {
-    for (cv::Mat* img : {&frame->left, &frame->right}) {
-      cv::Mat f;
-      img->convertTo(f, CV_32FC1);
-      f = f.mul(alpha) + 128.0f * (1.0f - alpha);
-      f.convertTo(*img, CV_8UC1);
-    }
-  };
+  const SoftWindows windows(w, h, {{150, 160}, {450, 120}, {330, 350}}, 35.0);
   struct Run {
     int first_few = -1;  // first frame after the loss with a few-feature estimate
     bool first_kept = false, first_predicted = false;
@@ -246,7 +257,7 @@ TEST(StereoTrackerTest, AfterALossAFewFeatureEstimateIsKeptOnceTheNextFrameConfi
     for (int i = 0; i < 40; ++i) {
       StereoFrame frame = seq.Render(i);
       if (i >= 10 && i < 25) frame.left = frame.right = cv::Mat(h, w, CV_8UC1, cv::Scalar(128));
-      if (i >= 25) few(&frame);
+      if (i >= 25) windows.Apply(&frame);
       const TrackerResult r = tracker.Track(frame);
       if (i < 26) continue;
       const int inliers = r.point_inliers + r.line_inliers;
@@ -281,25 +292,7 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   so.scene = sim::SceneKind::kRoom;
   const sim::SyntheticSequence seq(so);
   const int w = seq.camera().width, h = seq.camera().height;
-  const cv::Point2d centres[] = {{200, 180}, {520, 300}};
-  cv::Mat alpha(h, w, CV_32FC1);
-  for (int y = 0; y < h; ++y)
-    for (int x = 0; x < w; ++x) {
-      double a = 0.0;
-      for (const cv::Point2d& c : centres) {
-        const double r = std::hypot(x - c.x, y - c.y) / 36.0;
-        a = std::max(a, std::exp(-r * r * r * r));
-      }
-      alpha.at<float>(y, x) = static_cast<float>(a);
-    }
-  auto few = [&](StereoFrame* frame) {
-    for (cv::Mat* img : {&frame->left, &frame->right}) {
-      cv::Mat f;
-      img->convertTo(f, CV_32FC1);
-      f = f.mul(alpha) + 128.0f * (1.0f - alpha);
-      f.convertTo(*img, CV_8UC1);
-    }
-  };
+  const SoftWindows windows(w, h, {{200, 180}, {520, 300}}, 36.0);
   // Frames 0-19 of the walk, then every third frame from 22 to 40 seen through the windows.
   std::vector<int> walk;
   for (int i = 0; i < 20; ++i) walk.push_back(i);
@@ -319,7 +312,7 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
     for (int k = 0; k < gap_end; ++k) {
       const int i = walk[k];
       StereoFrame frame = seq.Render(i);
-      if (k >= gap_start) few(&frame);
+      if (k >= gap_start) windows.Apply(&frame);
       const TrackerResult r = tracker.Track(frame);
       EXPECT_TRUE(r.T_w_c.IsFinite());
       if (k < gap_start) continue;
