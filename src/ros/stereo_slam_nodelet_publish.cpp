@@ -139,6 +139,7 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
   status.map_line_inliers = static_cast<uint32_t>(result.map_line_inliers);
   status.loops = static_cast<uint32_t>(result.loops);
   status.map_tracked = result.map_tracked;
+  status.direct_aligned = result.direct_aligned;
   status.relocalized = result.relocalized;
   status.localization_only = system_->localization_only();
   for (const auto& [name, ms] : result.stage_ms) {

@@ -321,6 +321,11 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     r.stage_ms.emplace_back("rescue",
                             std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
   }
+  if (!r.pose_valid && r.predicted && !s.relocalize_first && s.tracker->TrackDirect(frame, &r)) {
+    // Features too few for the frame and the local map: the image's edges still hold it.
+    result.direct_aligned = true;
+    PL_LOG_DEBUG("frame " << frame.index << ": features too few, direct alignment held");
+  }
   if (!r.pose_valid && s.loop && s.options.loop.relocalize &&
       r.points_stereo + r.lines_stereo > 0 && s.map->LastKeyframe() != kNoId) {
     // Lost: look for the place in the map before restarting from the last pose.

@@ -168,6 +168,20 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.consensus.disparity_sigma_px", &c.disparity_sigma_px,
         "stereo disparity noise assumed by the rigidity pre-check, px");
 
+  DirectAlignmentOptions& d = tr.direct;
+  t.Add("tracker.direct.enabled", &d.enabled,
+        "before a frame is lost: align its image directly to the last frame with a pose");
+  t.Add("tracker.direct.max_pixels", &d.max_pixels,
+        "reference pixels with stereo depth kept (one per grid cell)");
+  t.Add("tracker.direct.min_gradient_sigmas", &d.min_gradient_sigmas,
+        "smallest horizontal gradient of a reference pixel, in noise standard deviations");
+  t.Add("tracker.direct.levels", &d.levels, "image pyramid levels of the alignment");
+  t.Add("tracker.direct.min_pixels", &d.min_pixels, "fewer reference pixels in view: no estimate");
+  t.Add("tracker.direct.max_residual", &d.max_residual,
+        "largest robust residual sigma accepted, grey levels");
+  t.Add("tracker.direct.max_rotation_sigma_deg", &d.max_rotation_sigma_deg,
+        "largest rotation standard deviation of an alignment accepted, deg");
+
   KeyframeSelectorOptions& k = tr.keyframes;
   t.Add("tracker.keyframes.entropy_ratio", &k.entropy_ratio,
         "keyframe when h(kf,cur)/h(kf,kf+1) drops below");

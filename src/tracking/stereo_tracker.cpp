@@ -62,10 +62,10 @@ std::string TrackerOptions::Validate() const {
     os << "lost_rotation_min_inliers=" << lost_rotation_min_inliers << " must be in [0, 1000]";
   if (!os.str().empty()) return os.str();
   const std::pair<const char*, std::string> nested[] = {
-      {"points.", points.Validate()},      {"point_matching.", point_matching.Validate()},
-      {"lines.", lines.Validate()},        {"line_matching.", line_matching.Validate()},
-      {"motion.", motion.Validate()},      {"consensus.", consensus.Validate()},
-      {"keyframes.", keyframes.Validate()}};
+      {"points.", points.Validate()},       {"point_matching.", point_matching.Validate()},
+      {"lines.", lines.Validate()},         {"line_matching.", line_matching.Validate()},
+      {"motion.", motion.Validate()},       {"consensus.", consensus.Validate()},
+      {"keyframes.", keyframes.Validate()}, {"direct.", direct.Validate()}};
   for (const auto& [prefix, err] : nested)
     if (!err.empty()) return prefix + err;
   return "";
@@ -112,6 +112,16 @@ struct StereoTracker::Impl {
   bool velocity_valid = false;
   int predicted_frames = 0;  // consecutive lost frames whose pose the motion model gave
   TrackerState state = TrackerState::kNotInitialized;
+  // Direct alignment's reference (TrackDirect): the last frame with a pose, its images (a
+  // copy: callers may reuse their buffers), its pose and the frames since; the pixels with
+  // depth are built on first use.
+  cv::Mat last_left, last_right;  // the frame of the last Track() call (not copied)
+  bool direct_valid = false;
+  cv::Mat direct_left, direct_right;
+  SE3 T_w_direct;
+  int frames_since_direct = 0;
+  bool direct_built = false;
+  DirectReference direct_reference;
   WorkerThread right_worker;  // detects the right image's features (options.parallel)
 
   Impl(const StereoCamera& cam, const TrackerOptions& opt)
@@ -249,6 +259,17 @@ struct StereoTracker::Impl {
     return true;
   }
 
+  /// The last Track() call's frame, at T_w, becomes direct alignment's reference.
+  void KeepForDirect(const SE3& T_w) {
+    if (!options.direct.enabled || last_left.empty()) return;
+    last_left.copyTo(direct_left);
+    last_right.copyTo(direct_right);
+    T_w_direct = T_w;
+    frames_since_direct = 0;
+    direct_valid = true;
+    direct_built = false;
+  }
+
   /// Fewest inliers any gate keeps: relaxed_min_inliers when the relaxed gate is on.
   int RelaxedFloor() const {
     return options.relaxed_min_inliers > 0
@@ -316,6 +337,7 @@ void StereoTracker::Reset() {
   s.state = TrackerState::kNotInitialized;
   s.selector.Reset();
   s.has_keyframe = false;
+  s.direct_valid = false;
 }
 
 void StereoTracker::Rescued(const SE3& T_w_c) {
@@ -328,6 +350,7 @@ void StereoTracker::Rescued(const SE3& T_w_c) {
   s.selector.Reset();
   s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
   s.has_keyframe = false;
+  s.KeepForDirect(T_w_c);
 }
 
 void StereoTracker::CorrectPose(const SE3& T_w_c) {
@@ -338,6 +361,7 @@ void StereoTracker::CorrectPose(const SE3& T_w_c) {
   const SE3 correction = T_w_c * s.T_w_c.inverse();
   s.T_w_keyframe = correction * s.T_w_keyframe;
   s.T_w_previous = correction * s.T_w_previous;
+  s.T_w_direct = correction * s.T_w_direct;
   s.T_w_c = T_w_c;
 }
 
@@ -352,12 +376,15 @@ void StereoTracker::Relocalized(const SE3& T_w_c) {
   s.selector.Reset();
   s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
   s.has_keyframe = false;
+  s.KeepForDirect(T_w_c);
 }
 
 TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) {
   Impl& s = *impl_;
   TrackerResult result;
   result.T_w_c = s.T_w_c;
+  s.last_left = frame.left;
+  s.last_right = frame.right;
 
   // 1. Features in both images; the right image on the tracker's helper thread (one thread
   //    for the tracker's life, see util/worker_thread.h).
@@ -565,11 +592,81 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     s.T_w_previous = s.T_w_c;
     s.frames_since_previous = 0;
   }
+  if (tracked)
+    s.KeepForDirect(s.T_w_c);
+  else if (s.direct_valid)
+    ++s.frames_since_direct;
   result.state = s.state;
   result.pose_valid = tracked;
   result.T_w_c = s.T_w_c;
   result.stage_ms.emplace_back("keyframe", MsSince(t0));
   return result;
+}
+
+bool StereoTracker::TrackDirect(const StereoFrame& frame, TrackerResult* r) {
+  Impl& s = *impl_;
+  if (!s.options.direct.enabled || !s.direct_valid || r->pose_valid || !r->predicted ||
+      s.frames_since_direct < 1 || frame.left.data != s.last_left.data)
+    return false;
+  const auto t0 = Clock::now();
+  if (!s.direct_built) {
+    s.direct_reference =
+        BuildDirectReference(s.camera, s.direct_left, s.direct_right,
+                             s.options.point_matching.max_disparity, s.options.direct);
+    s.direct_built = true;
+  }
+  const SE3 prior = r->T_w_c.inverse() * s.T_w_direct;  // T_cur_ref, the motion model's
+  const DirectAlignmentResult a =
+      AlignDirect(s.camera, s.direct_reference, frame.left, prior, s.options.direct);
+  r->stage_ms.emplace_back("direct", MsSince(t0));
+  if (!a.success) {
+    PL_LOG_DEBUG("direct alignment failed: " << a.failure);
+    return false;
+  }
+  // The prediction's error grows with the frames since the last pose.
+  const double n = std::max(1, std::min(s.predicted_frames, s.frames_since_direct));
+  const SE3 deviation = a.T_cur_ref * prior.inverse();
+  const double max_m = n * s.options.relaxed_max_deviation;
+  const double max_rad = n * s.options.relaxed_max_deviation_deg * M_PI / 180.0;
+  const SE3 T_ref_cur = a.T_cur_ref.inverse();
+  const Matrix6d Ad = T_ref_cur.Adjoint();
+  const Matrix6d cov_ref_cur = Ad * a.covariance * Ad.transpose();
+  if (deviation.translation().norm() > max_m || deviation.RotationAngle() > max_rad ||
+      !SigmaWithin(cov_ref_cur, s.options.relaxed_max_deviation,
+                   s.options.relaxed_max_deviation_deg * M_PI / 180.0)) {
+    PL_LOG_DEBUG("direct alignment refused: " << deviation.translation().norm() << " m, "
+                                              << deviation.RotationAngle() * 180.0 / M_PI
+                                              << " deg from the prediction");
+    return false;
+  }
+  const SE3 T_w_c = s.T_w_direct * T_ref_cur;
+  // The increment from the frame before (r: its predicted pose and increment).
+  const SE3 T_w_before = r->T_w_c * r->T_prev_cur.inverse();
+  const SE3 T_prev_cur = T_w_before.inverse() * T_w_c;
+  if (s.predicted_frames == 1) {  // the frame before had a pose: a measured velocity
+    s.velocity_cur_prev = T_prev_cur.inverse();
+    s.velocity_valid = true;
+  }
+  // This frame's features, when it had any, are the next frame's reference already (Track).
+  if (s.frames_since_previous == 0) s.T_w_previous = T_w_c;
+  s.T_w_c = T_w_c;
+  s.state = TrackerState::kTracking;
+  s.predicted_frames = 0;
+  s.selector.Reset();
+  s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
+  s.has_keyframe = false;
+  s.KeepForDirect(T_w_c);
+  r->pose_valid = true;
+  r->state = TrackerState::kTracking;
+  r->T_w_c = T_w_c;
+  r->T_prev_cur = T_prev_cur;
+  r->covariance_prev_cur = cov_ref_cur;
+  r->predicted = false;
+  r->rotation_measured = false;
+  r->direct_aligned = true;
+  r->is_keyframe = false;
+  r->warning.clear();
+  return true;
 }
 
 }  // namespace pl_slam

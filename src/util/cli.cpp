@@ -31,6 +31,11 @@ CommandLine::CommandLine(int argc, char** argv, const std::set<std::string>& key
         if (i + 1 >= argc) throw ConfigError("option --" + name + " needs a value");
         value = argv[++i];
       }
+      if (values_.count(name)) {
+        // The first value would be silently lost.
+        throw ConfigError("option --" + name + " given more than once" +
+                          (name == "set" ? " (join the K=V pairs with commas)" : ""));
+      }
       values_[name] = value;
     } else {
       throw ConfigError("unknown option --" + name);

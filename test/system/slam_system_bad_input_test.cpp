@@ -61,6 +61,16 @@ TEST(SlamSystemBadInput, InvalidConfigurationIsRefused) {
           << e.what();
     }
   }
+  for (const int levels : {0, 9}) {
+    SystemOptions o;
+    o.tracker.direct.levels = levels;
+    try {
+      SlamSystem s(Camera(), o);
+      ADD_FAILURE() << "direct.levels=" << levels << " accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_NE(std::string(e.what()).find("direct.levels"), std::string::npos) << e.what();
+    }
+  }
 }
 
 TEST(SlamSystemBadInput, EmptyUniformMismatchedAndWrongTypeFrames) {

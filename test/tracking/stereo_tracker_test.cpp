@@ -2,7 +2,8 @@
 // against the last keyframe lowers the error of the frame-to-frame chain, and a pose
 // correction from outside (the map) moves the keyframe reference with it, a right principal
 // point offset is corrected by the camera's doffs, and while lost the pose follows the motion
-// model with the rotation the frame's own matches give.
+// model with the rotation the frame's own matches give, and direct alignment holds a view too
+// poor for features.
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -334,6 +335,52 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   // The rotation is fitted about a centre the model places too short (by two frames' travel
   // per frame), which it partly absorbs: better, not exact.
   EXPECT_LT(with.heading_error_deg, 0.6 * without.heading_error_deg);
+}
+// The end of the dim corner walk (facing a door: a few faint edges, 1-2 point matches per
+// frame): features alone lose most frames there; direct alignment of the images keeps every
+// one, and the pose ends closer to the truth than the motion model takes it.
+TEST(StereoTrackerTest, DirectAlignmentHoldsADimCorridorWhereFeaturesRunOut) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kLowtexCorner;
+  so.world_seed = 1;
+  so.seed = 1;
+  so.exposure_gain = 0.45;
+  const sim::SyntheticSequence seq(so);
+  const int first = 236, last = static_cast<int>(seq.size()) - 1;
+  std::vector<StereoFrame> frames;
+  for (int i = first; i <= last; ++i) frames.push_back(seq.Render(i));
+  struct Run {
+    int lost = 0, direct = 0;
+    double error = 0.0;  // position error at the last frame, m
+  };
+  auto run = [&](bool direct) {
+    TrackerOptions options;
+    options.direct.enabled = direct;
+    StereoTracker tracker(seq.camera(), options);
+    const SE3 T_w0 = seq.ground_truth()[first].T_w_c;
+    Run out;
+    for (int i = first; i <= last; ++i) {
+      TrackerResult r = tracker.Track(frames[i - first]);
+      if (!r.pose_valid && r.predicted) tracker.TrackDirect(frames[i - first], &r);
+      EXPECT_TRUE(r.T_w_c.IsFinite());
+      out.lost += !r.pose_valid;
+      out.direct += r.direct_aligned;
+      const SE3 truth = T_w0.inverse() * seq.ground_truth()[i].T_w_c;
+      out.error = (truth.translation() - r.T_w_c.translation()).norm();
+    }
+    return out;
+  };
+  const Run with = run(true);
+  const Run without = run(false);
+  std::cout << "features alone: " << without.lost << " lost, end error " << without.error
+            << " m; with direct alignment: " << with.lost << " lost (" << with.direct
+            << " aligned), end error " << with.error << " m\n";
+  EXPECT_GE(without.lost, 5) << "the view should be too poor for features alone";
+  EXPECT_EQ(without.direct, 0);
+  EXPECT_EQ(with.lost, 0);
+  EXPECT_GE(with.direct, 5);
+  EXPECT_LT(with.error, 0.03);
+  EXPECT_LT(with.error, 0.5 * without.error);
 }
 }  // namespace
 }  // namespace pl_slam

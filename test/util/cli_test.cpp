@@ -31,6 +31,9 @@ TEST(CommandLine, RejectsUnknownOptionsAndMalformedValues) {
   EXPECT_THROW(Parse({"--quiet=1"}), ConfigError);
   EXPECT_THROW(Parse({"--n", "5x"}).GetInt("n", 0), ConfigError);
   EXPECT_THROW(Parse({"--x", "nan"}).GetDouble("x", 0.0), ConfigError);
+  // A repeated key would silently lose its first value.
+  EXPECT_THROW(Parse({"--out", "a", "--out", "b"}), ConfigError);
+  EXPECT_THROW(Parse({"--n=1", "--n", "2"}), ConfigError);
 }
 
 }  // namespace

@@ -74,6 +74,9 @@ struct FrameResult {
   /// Visual odometry lost the frame and tracking against the local map, from the motion
   /// model's prediction, recovered it.
   bool map_rescued = false;
+  /// Features were too few, and the pose comes from aligning the image directly to the last
+  /// frame with a pose (StereoTracker::TrackDirect).
+  bool direct_aligned = false;
   /// Lost, and T_w_c is the motion model's prediction (covariance: the model's).
   bool predicted = false;
   int loops = 0;              ///< loops closed so far

@@ -15,6 +15,7 @@
 #include "pl_slam/matching/line_matching.h"
 #include "pl_slam/matching/point_matching.h"
 #include "pl_slam/tracking/keyframe_selector.h"
+#include "pl_slam/tracking/direct_alignment.h"
 #include "pl_slam/tracking/motion_consensus.h"
 #include "pl_slam/tracking/motion_estimator.h"
 
@@ -80,6 +81,7 @@ struct TrackerOptions {
   LineMatchingOptions line_matching;    ///< "line_matching.*"
   MotionEstimatorOptions motion;        ///< "motion.*"
   ConsensusOptions consensus;           ///< "consensus.*"
+  DirectAlignmentOptions direct;        ///< "direct.*" (TrackDirect)
   KeyframeSelectorOptions keyframes;    ///< "keyframes.*"
 
   /// Empty when valid, else "key=value must be ..." naming the first bad key (with prefix).
@@ -110,6 +112,9 @@ struct TrackerResult {
   /// Predicted, with the rotation measured from the frame's own matches about the predicted
   /// position (TrackerOptions::lost_rotation_min_inliers).
   bool rotation_measured = false;
+  /// The pose comes from direct alignment of the image to the last frame with a pose
+  /// (TrackDirect): features were too few, the image's edges were enough.
+  bool direct_aligned = false;
   std::string warning;                                   ///< why tracking failed, when it did
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
 };
@@ -139,6 +144,15 @@ class StereoTracker {
   /// After tracking against the local map rescued a frame the tracker lost: the last frame is
   /// at T_w_c; tracking resumes from it with the motion prior kept (a new keyframe chain).
   void Rescued(const SE3& T_w_c);
+
+  /// The last resort before a frame is reported lost: `frame` (the one Track() just returned
+  /// `r` for, pose predicted) aligned directly to the last frame with a pose, from the motion
+  /// model's prediction (direct_alignment.h). Kept when the alignment converges, lands within
+  /// relaxed_max_deviation(_deg) of the prediction per frame since that reference and its
+  /// standard deviations are within them too; then `r` becomes a tracked frame (pose_valid,
+  /// direct_aligned) and tracking continues from it. False (r untouched) otherwise, or when
+  /// tracker.direct.enabled is off.
+  bool TrackDirect(const StereoFrame& frame, TrackerResult* r);
 
   /// Features of the last frame (for the debug image and the map).
   const StereoFeatures& last_features() const;

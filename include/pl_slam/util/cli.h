@@ -14,7 +14,7 @@ namespace pl_slam {
 class CommandLine {
  public:
   /// Parses argv. `flags` take no value, `keys` take exactly one. Throws ConfigError on an
-  /// unknown option or a missing value.
+  /// unknown option, a missing value or a key given twice.
   CommandLine(int argc, char** argv, const std::set<std::string>& keys,
               const std::set<std::string>& flags);
 
