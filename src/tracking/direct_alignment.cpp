@@ -17,7 +17,7 @@ namespace {
 using Vector8d = Eigen::Matrix<double, 8, 1>;
 using Matrix8d = Eigen::Matrix<double, 8, 8>;
 
-constexpr int kHalfWindow = 3;     // stereo correlation window 7 x 7
+constexpr int kHalfWindow = 3;  // stereo correlation window 7 x 7
 // A row match must explain half of the window's variance (energy), and every other position
 // 3 px away or more must cost 1 / 0.8 times more (plus 5 % of the energy, for noise).
 constexpr float kMaxCostRatio = 0.5f;
@@ -29,6 +29,7 @@ constexpr double kHuber = 1.345;        // Huber threshold, robust sigmas
 constexpr double kMinSigma = 0.5;       // floor of the robust residual sigma, grey levels
 constexpr double kMinDepth = 0.05;      // nearer projections are not used, m
 constexpr double kMaxBrightness = 0.5;  // |gain - 1| beyond this: the brightness fit failed
+constexpr int kSaturated = 250;         // grey levels from here on may be clipped
 
 // The image as float, smoothed as every level is before sampling (noise down, basin wider).
 cv::Mat Smoothed(const cv::Mat& image) {
@@ -171,7 +172,9 @@ class LevelProblem {
       double u, v;
       Eigen::Vector3d X;
       if (!Project(T, i, &X, &u, &v)) continue;
-      r->push_back(Sample(img_, u, v) - (gain * ref_.intensity[level_][i] + bias));
+      const float i1 = Sample(img_, u, v);
+      if (i1 >= kSaturated) continue;  // clipped: no brightness to compare
+      r->push_back(i1 - (gain * ref_.intensity[level_][i] + bias));
     }
   }
 
@@ -187,7 +190,9 @@ class LevelProblem {
       Eigen::Vector3d X;
       if (!Project(T, i, &X, &u, &v)) continue;
       const double i0 = ref_.intensity[level_][i];
-      const double r = Sample(img_, u, v) - (gain * i0 + bias);
+      const float i1 = Sample(img_, u, v);
+      if (i1 >= kSaturated) continue;  // clipped: no brightness to compare
+      const double r = i1 - (gain * i0 + bias);
       const double a = std::abs(r);
       out.cost += a <= k ? 0.5 * r * r : k * (a - 0.5 * k);
       ++out.pixels;
@@ -246,8 +251,7 @@ void CheckImage(const StereoCamera& camera, const cv::Mat& image, const char* wh
   if (image.type() != CV_8UC1 || image.cols != camera.width || image.rows != camera.height) {
     std::ostringstream os;
     os << "direct alignment: " << what << " image must be CV_8UC1 " << camera.width << "x"
-       << camera.height << ", got type " << image.type() << " " << image.cols << "x"
-       << image.rows;
+       << camera.height << ", got type " << image.type() << " " << image.cols << "x" << image.rows;
     throw InputError(os.str());
   }
 }
@@ -280,6 +284,13 @@ DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& 
   Gradients(l0, &gx, &gy);
 
   const int border = kHalfWindow + 1;
+  // Saturated pixels and their neighbours are left out of the noise estimate and the
+  // selection: flat at 255 they would make the noise look absent, and a clipped highlight's
+  // smooth surroundings (lighting, vignetting) would pass for edges.
+  cv::Mat saturated;
+  cv::threshold(left, saturated, kSaturated - 1, 255, cv::THRESH_BINARY);
+  cv::dilate(saturated, saturated,
+             cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * border + 1, 2 * border + 1)));
   // The gradient threshold in multiples of the noise's standard deviation in gx, from the
   // lower quartile of |gx| (0.319 sigma for noise alone; texture raises it less than the
   // median): a fixed threshold would depend on the exposure and the camera.
@@ -287,7 +298,9 @@ DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& 
   sample.reserve(gx.total() / 16 + 1);
   for (int y = border; y < gx.rows - border; y += 4) {
     const float* px = gx.ptr<float>(y);
-    for (int x = border; x < gx.cols - border; x += 4) sample.push_back(std::abs(px[x]));
+    const uint8_t* sat = saturated.ptr<uint8_t>(y);
+    for (int x = border; x < gx.cols - border; x += 4)
+      if (!sat[x]) sample.push_back(std::abs(px[x]));  // clipped areas have no noise to see
   }
   float quartile = 0.f;
   if (!sample.empty()) {
@@ -296,8 +309,8 @@ DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& 
     quartile = *q;
   }
   ref.gradient_noise = quartile / 0.3186f;
-  const float min_gradient = std::max(
-      kMinGradient, static_cast<float>(options.min_gradient_sigmas) * ref.gradient_noise);
+  const float min_gradient =
+      std::max(kMinGradient, static_cast<float>(options.min_gradient_sigmas) * ref.gradient_noise);
   // One candidate per cell: the strongest horizontal gradient (only those have a row
   // disparity), twice as many cells as pixels wanted since not all find a match.
   const int cell = std::max(
@@ -312,9 +325,10 @@ DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& 
       Candidate best{0, 0, 0.f};
       for (int y = y0; y < std::min(y0 + cell, l0.rows - border); ++y) {
         const float* px = gx.ptr<float>(y);
+        const uint8_t* sat = saturated.ptr<uint8_t>(y);
         for (int x = x0; x < std::min(x0 + cell, l0.cols - border); ++x) {
           const float g = std::abs(px[x]);
-          if (g > best.g) best = {x, y, g};
+          if (g > best.g && !sat[x]) best = {x, y, g};
         }
       }
       if (best.g >= min_gradient) candidates.push_back(best);
@@ -444,7 +458,8 @@ DirectAlignmentResult AlignDirect(const StereoCamera& camera, const DirectRefere
     out.failure = "no finite estimate";
     return out;
   }
-  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot(out.covariance.bottomRightCorner<3, 3>());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot(
+      out.covariance.bottomRightCorner<3, 3>());
   const double rotation_sigma_deg = std::sqrt(std::max(0.0, rot.eigenvalues()(2))) * 180.0 / M_PI;
   if (rotation_sigma_deg > options.max_rotation_sigma_deg) {
     std::ostringstream os;

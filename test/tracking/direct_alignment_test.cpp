@@ -1,6 +1,7 @@
 // Direct alignment on rendered low-texture frames: the motion between two frames of a dim, bare
 // corridor is recovered from a prediction centimetres and a degree off; a view without
-// structure or with edges in one direction only, and bad images, are refused.
+// structure or with edges in one direction only, and bad images, are refused; clipped
+// highlights do not hide the image noise.
 #include <cmath>
 #include <iostream>
 
@@ -54,7 +55,8 @@ TEST(DirectAlignment, RecoversTheMotionOfADimBareCorridorFromAPoorPrediction) {
     Vector6d off;
     off << 0.02, -0.01, 0.015, 0.01, -0.015, 0.005;  // 2.6 cm, 1.1 deg
     const SE3 prior = SE3::Exp(off) * truth;
-    const DirectReference r = BuildDirectReference(seq.camera(), ref.left, ref.right, kMaxDisparity, options);
+    const DirectReference r =
+        BuildDirectReference(seq.camera(), ref.left, ref.right, kMaxDisparity, options);
     ASSERT_GE(static_cast<int>(r.points.size()), options.min_pixels) << "frame " << ref_index;
     const DirectAlignmentResult a = AlignDirect(seq.camera(), r, cur.left, prior, options);
     ASSERT_TRUE(a.success) << "frame " << ref_index << ": " << a.failure;
@@ -104,14 +106,34 @@ TEST(DirectAlignment, EdgesInOneDirectionGiveNoEstimate) {
   EXPECT_FALSE(a.failure.empty());
 }
 
+// A clipped highlight is flat at 255: the noise estimate (which sets the edge threshold) comes
+// from the rest of the image, not from the highlight's missing noise.
+TEST(DirectAlignment, TheNoiseEstimateIgnoresAClippedHighlight) {
+  const sim::SyntheticSequence seq(DimBareCorner());
+  const StereoCamera& cam = seq.camera();
+  cv::RNG rng(11);
+  const cv::Mat grey(cam.height, cam.width, CV_8UC1, cv::Scalar(200));
+  const cv::Mat plain = WithNoise(grey, &rng);
+  cv::Mat clipped = WithNoise(grey, &rng);
+  clipped(cv::Rect(0, 0, cam.width * 2 / 3, cam.height)).setTo(255);
+  const DirectAlignmentOptions options;
+  const DirectReference a = BuildDirectReference(cam, plain, plain, kMaxDisparity, options);
+  const DirectReference b = BuildDirectReference(cam, clipped, clipped, kMaxDisparity, options);
+  ASSERT_GT(a.gradient_noise, 0.f);
+  EXPECT_NEAR(b.gradient_noise, a.gradient_noise, 0.2 * a.gradient_noise);
+  EXPECT_LT(static_cast<int>(b.points.size()), options.min_pixels);
+}
+
 TEST(DirectAlignment, BadImagesAndOptionsAreRefused) {
   const sim::SyntheticSequence seq(DimBareCorner());
   const StereoFrame f = seq.Render(0);
   const DirectAlignmentOptions options;
   cv::Mat colour;
   cv::cvtColor(f.left, colour, cv::COLOR_GRAY2BGR);
-  EXPECT_THROW(BuildDirectReference(seq.camera(), colour, f.right, kMaxDisparity, options), InputError);
-  const DirectReference r = BuildDirectReference(seq.camera(), f.left, f.right, kMaxDisparity, options);
+  EXPECT_THROW(BuildDirectReference(seq.camera(), colour, f.right, kMaxDisparity, options),
+               InputError);
+  const DirectReference r =
+      BuildDirectReference(seq.camera(), f.left, f.right, kMaxDisparity, options);
   cv::Mat half;
   cv::resize(f.left, half, cv::Size(), 0.5, 0.5);
   EXPECT_THROW(AlignDirect(seq.camera(), r, half, SE3(), options), InputError);

@@ -22,8 +22,8 @@
 namespace pl_slam {
 
 struct DirectAlignmentOptions {
-  bool enabled = true;        ///< try the alignment before a frame is reported lost
-  int max_pixels = 2000;      ///< reference pixels with depth kept (at most one per grid cell)
+  bool enabled = true;    ///< try the alignment before a frame is reported lost
+  int max_pixels = 2000;  ///< reference pixels with depth kept (at most one per grid cell)
   /// Smallest horizontal gradient of a reference pixel, in standard deviations of the
   /// gradient's noise (estimated per image)
   double min_gradient_sigmas = 5.0;
@@ -43,9 +43,9 @@ struct DirectAlignmentOptions {
 
 /// A reference frame: its left-image pyramid and its pixels with depth.
 struct DirectReference {
-  std::vector<cv::Mat> pyramid;                ///< CV_32F, level 0 the (smoothed) full image
-  std::vector<Eigen::Vector3d> points;         ///< the pixels' 3D points, reference camera frame
-  std::vector<std::vector<float>> intensity;   ///< per level, each point's reference intensity
+  std::vector<cv::Mat> pyramid;               ///< CV_32F, level 0 the (smoothed) full image
+  std::vector<Eigen::Vector3d> points;        ///< the pixels' 3D points, reference camera frame
+  std::vector<std::vector<float>> intensity;  ///< per level, each point's reference intensity
   std::vector<std::vector<Eigen::Vector2f>> gradient;  ///< per level, its intensity gradient
   float gradient_noise = 0.f;  ///< standard deviation of the level-0 gradient's noise, grey/px
   bool empty() const { return points.empty(); }
@@ -53,8 +53,8 @@ struct DirectReference {
 
 /// Selects the reference pixels (the strongest horizontal gradient per grid cell, above the
 /// image's noise), gives them depth by a zero-mean SSD search along the right image's row
-/// (unique minima only), and builds the pyramid. Images: CV_8UC1, rectified, the camera's size; disparities searched up
-/// to max_disparity (px).
+/// (unique minima only), and builds the pyramid. Images: CV_8UC1, rectified, the camera's size;
+/// disparities searched up to max_disparity (px).
 DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& left,
                                      const cv::Mat& right, double max_disparity,
                                      const DirectAlignmentOptions& options);
@@ -63,9 +63,9 @@ struct DirectAlignmentResult {
   bool success = false;
   SE3 T_cur_ref;
   Matrix6d covariance = Matrix6d::Zero();  ///< of T_cur_ref (left perturbation)
-  int pixels = 0;         ///< reference pixels inside the current image at the end
-  double residual = 0.0;  ///< robust sigma of the final residuals, grey levels
-  std::string failure;    ///< why not, when !success
+  int pixels = 0;                          ///< reference pixels inside the current image at the end
+  double residual = 0.0;                   ///< robust sigma of the final residuals, grey levels
+  std::string failure;                     ///< why not, when !success
 };
 
 /// Aligns `cur_left` (CV_8UC1, the camera's size) to `ref` from `prior` (T_cur_ref).
