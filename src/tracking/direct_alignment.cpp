@@ -312,7 +312,8 @@ DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& 
   const float min_gradient =
       std::max(kMinGradient, static_cast<float>(options.min_gradient_sigmas) * ref.gradient_noise);
   // One candidate per cell: the strongest horizontal gradient (only those have a row
-  // disparity), twice as many cells as pixels wanted since not all find a match.
+  // disparity). Eight times as many cells as pixels wanted: a sparse view's few edges then
+  // still give a pixel every few pixels along them, and not every candidate finds a match.
   const int cell = std::max(
       3, static_cast<int>(std::lround(std::sqrt(l0.total() / (8.0 * options.max_pixels)))));
   struct Candidate {
