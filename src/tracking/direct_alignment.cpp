@@ -354,8 +354,8 @@ DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& 
     const LevelCamera cam = AtLevel(camera, static_cast<int>(l), ref.pyramid[l]);
     ref.intensity[l].reserve(ref.points.size());
     ref.gradient[l].reserve(ref.points.size());
-    cv::Mat lgx, lgy;
-    Gradients(ref.pyramid[l], &lgx, &lgy);
+    cv::Mat lgx = gx, lgy = gy;  // level 0's were computed for the selection
+    if (l > 0) Gradients(ref.pyramid[l], &lgx, &lgy);
     for (const Eigen::Vector3d& X : ref.points) {
       const double u = std::clamp(cam.fx * X.x() / X.z() + cam.cx, 0.0, cam.cols - 1.001);
       const double v = std::clamp(cam.fy * X.y() / X.z() + cam.cy, 0.0, cam.rows - 1.001);
@@ -382,8 +382,8 @@ DirectAlignmentResult AlignDirect(const StereoCamera& camera, const DirectRefere
   double gain = 1.0, bias = 0.0;
   double sigma = kMinSigma;
   std::vector<double> residuals;
+  cv::Mat gx, gy;  // after the loop: level 0's, for the final linearisation
   for (int l = levels - 1; l >= 0; --l) {
-    cv::Mat gx, gy;
     Gradients(pyr[l], &gx, &gy);
     const LevelProblem problem(ref, l, AtLevel(camera, l, pyr[l]), pyr[l], gx, gy);
     double lambda = 1e-4;
@@ -422,8 +422,6 @@ DirectAlignmentResult AlignDirect(const StereoCamera& camera, const DirectRefere
   }
   // The final linearisation at full resolution: the covariance of the pose with the
   // brightness parameters marginalised out.
-  cv::Mat gx, gy;
-  Gradients(pyr[0], &gx, &gy);
   const LevelProblem problem(ref, 0, AtLevel(camera, 0, pyr[0]), pyr[0], gx, gy);
   problem.Residuals(T, gain, bias, &residuals);
   sigma = RobustSigma(residuals);

@@ -270,6 +270,19 @@ struct StereoTracker::Impl {
     direct_built = false;
   }
 
+  /// A lost frame given a pose from outside frame-to-frame tracking (the local map, direct
+  /// alignment): tracking resumes from it with the motion prior kept, a new keyframe chain, and
+  /// it as direct alignment's reference.
+  void ResumeAt(const SE3& T_w) {
+    T_w_c = T_w;
+    state = TrackerState::kTracking;
+    predicted_frames = 0;
+    selector.Reset();
+    selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
+    has_keyframe = false;
+    KeepForDirect(T_w);
+  }
+
   /// Fewest inliers any gate keeps: relaxed_min_inliers when the relaxed gate is on.
   int RelaxedFloor() const {
     return options.relaxed_min_inliers > 0
@@ -343,14 +356,8 @@ void StereoTracker::Reset() {
 void StereoTracker::Rescued(const SE3& T_w_c) {
   Impl& s = *impl_;
   if (!T_w_c.IsFinite()) return;
-  s.T_w_c = T_w_c;
   s.T_w_previous = T_w_c;
-  s.state = TrackerState::kTracking;
-  s.predicted_frames = 0;
-  s.selector.Reset();
-  s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
-  s.has_keyframe = false;
-  s.KeepForDirect(T_w_c);
+  s.ResumeAt(T_w_c);
 }
 
 void StereoTracker::CorrectPose(const SE3& T_w_c) {
@@ -649,13 +656,7 @@ bool StereoTracker::TrackDirect(const StereoFrame& frame, TrackerResult* r) {
   }
   // This frame's features, when it had any, are the next frame's reference already (Track).
   if (s.frames_since_previous == 0) s.T_w_previous = T_w_c;
-  s.T_w_c = T_w_c;
-  s.state = TrackerState::kTracking;
-  s.predicted_frames = 0;
-  s.selector.Reset();
-  s.selector.AddFrame(SE3(), Matrix6d::Identity(), 0);
-  s.has_keyframe = false;
-  s.KeepForDirect(T_w_c);
+  s.ResumeAt(T_w_c);
   r->pose_valid = true;
   r->state = TrackerState::kTracking;
   r->T_w_c = T_w_c;
