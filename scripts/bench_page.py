@@ -54,23 +54,6 @@ DESIGN_DECISIONS = [
      "keyframe instead of per frame. Together with line weight 8 it took the room's VO from 16.3 "
      "to 2.9 mm and fast_turn's drift from 2.27 to 0.62 %, for 0.2-0.7 ms per frame "
      "(`keyframe_match`)."),
-    ("The keyframe refinement replaces the chain only where it is as certain "
-     "(`tracker.keyframe_chain_guard`)",
-     "The pose refined against the keyframe and the frame-to-frame chain since the keyframe are "
-     "compared by their covariances: along a direction where the refinement's variance is "
-     "lambda > 1 times the chain's, it moves the pose only 1 / lambda of the way. Walking up "
-     "to a wall, the features matched to the keyframe can leave a shift and a turn trading "
-     "off: replacing the chain, that estimate put one frame 3.5 cm and 0.8 deg off (textured "
-     "wall seed 1, frame 51), and bundle adjustment's correction of that keyframe then bent "
-     "the trajectory around it. Low-texture family, points + lines, normal exposure: textured "
-     "wall seeds 1 and 3 0.08 -> 0.06 % of the path, no run worse. Street family VO, "
-     "geometric mean of the ATE ratio to the previous page, tuning layouts: 1.00 with points "
-     "+ lines and with points only (the guard rarely acts there). Fusing both estimates by "
-     "their information instead did as well on both families but let a still camera's pose "
-     "creep by a millimetre towards the keyframe estimate (the chain and the refinement share "
-     "the frame's features, so they are not independent); applying the same guard to the "
-     "local-map pose changed nothing (textured wall seed 1 4.0 -> 3.9 mm, textured corner seed "
-     "1 8.2 mm both)."),
     ("Tracking against the local map is on, and conservative (`mapping.track_local_map`)",
      "The local-map pose replaces the frame-to-frame one only with at least as many inliers and "
      "a correction under 2 cm / 0.25 deg. Replacing it whenever it succeeded made fast_turn worse "

@@ -40,9 +40,6 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "largest accepted keyframe refinement, m");
   t.Add("tracker.keyframe_max_correction_deg", &tr.keyframe_max_correction_deg,
         "largest accepted keyframe refinement, deg");
-  t.Add("tracker.keyframe_chain_guard", &tr.keyframe_chain_guard,
-        "where the keyframe refinement is less certain than the frame-to-frame chain, the "
-        "chain keeps that direction (false = the refinement replaces it)");
   t.Add("tracker.max_predicted_frames", &tr.max_predicted_frames,
         "while lost the pose follows the motion model for this many frames (0 = off)");
   t.Add("tracker.lost_rotation_min_inliers", &tr.lost_rotation_min_inliers,

@@ -524,34 +524,4 @@ bool SigmaWithin(const Matrix6d& covariance, double max_m, double max_rad) {
          std::sqrt(std::max(0.0, r.eigenvalues()(2))) <= max_rad;
 }
 
-bool PreferUnlessWeaker(const SE3& T_a, const Matrix6d& cov_a, const SE3& T_b,
-                        const Matrix6d& cov_b, SE3* T, Matrix6d* cov) {
-  if (!T_a.IsFinite() || !T_b.IsFinite() || !cov_a.allFinite() || !cov_b.allFinite()) return false;
-  const Eigen::LLT<Matrix6d> llt(0.5 * (cov_a + cov_a.transpose()));
-  if (llt.info() != Eigen::Success) return false;
-  const Matrix6d L = llt.matrixL();
-  // cov_b whitened by cov_a: M = L^-1 cov_b L^-T.
-  const Matrix6d Linv_b = L.triangularView<Eigen::Lower>().solve(cov_b);
-  Matrix6d M = L.triangularView<Eigen::Lower>().solve(Linv_b.transpose());
-  M = 0.5 * (M + M.transpose()).eval();
-  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(M);
-  if (eig.info() != Eigen::Success) return false;
-  const Matrix6d& V = eig.eigenvectors();
-  Vector6d gain, var;
-  for (int i = 0; i < 6; ++i) {
-    const double lambda = std::max(0.0, eig.eigenvalues()(i));
-    gain(i) = lambda <= 1.0 ? 1.0 : 1.0 / lambda;
-    var(i) = (1.0 - gain(i)) * (1.0 - gain(i)) + gain(i) * gain(i) * lambda;
-  }
-  const Vector6d d = (T_b * T_a.inverse()).Log();
-  const Vector6d dw = L.triangularView<Eigen::Lower>().solve(d);
-  const Vector6d step = L * (V * gain.asDiagonal() * V.transpose() * dw);
-  const SE3 result = SE3::Exp(step) * T_a;
-  if (!result.IsFinite()) return false;
-  *T = result;
-  const Matrix6d c = L * V * var.asDiagonal() * V.transpose() * L.transpose();
-  *cov = 0.5 * (c + c.transpose());
-  return true;
-}
-
 }  // namespace pl_slam

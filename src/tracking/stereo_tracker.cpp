@@ -108,11 +108,6 @@ struct StereoTracker::Impl {
   bool has_keyframe = false;
   StereoFeatures keyframe;
   SE3 T_w_keyframe;
-  // Covariance of the previous frame's pose relative to the keyframe (left perturbation of
-  // T_keyframe_previous): what the frame-to-frame chain adds to before the keyframe estimate
-  // is weighed against it.
-  Matrix6d cov_keyframe_previous = Matrix6d::Zero();
-  Matrix6d cov_keyframe_cur = Matrix6d::Zero();
   SE3 velocity_cur_prev;  // last T_cur_prev: the constant-velocity prior
   bool velocity_valid = false;
   int predicted_frames = 0;  // consecutive lost frames whose pose the motion model gave
@@ -495,28 +490,14 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       const Impl::Estimation kf = s.EstimateAgainst(s.keyframe, cur, &predicted, false);
       const int kf_inliers = kf.est.point_inliers + kf.est.line_inliers;
       const int f2f_inliers = result.point_inliers + result.line_inliers;
-      // The chain's pose relative to the keyframe and its covariance (left perturbations:
-      // T_kf_cur = T_kf_prev * T_prev_cur adds Ad(T_kf_prev) cov_prev_cur Ad^T).
-      const SE3 T_kf_prev = s.T_w_keyframe.inverse() * T_w_prev;
-      const Matrix6d Ad = T_kf_prev.Adjoint();
-      s.cov_keyframe_cur =
-          s.cov_keyframe_previous + Ad * result.covariance_prev_cur * Ad.transpose();
-      // The keyframe estimate where it is at least as certain (keyframe_chain_guard).
-      const SE3 T_kf_cur_kf = kf.est.T_cur_prev.inverse();
-      SE3 T_kf_cur = T_kf_cur_kf;
-      Matrix6d cov_kept = kf.est.covariance_prev_cur;
       if (kf.est.success && kf_inliers >= s.options.min_inliers &&
-          kf_inliers >= s.options.keyframe_min_inlier_ratio * f2f_inliers &&
-          (!s.options.keyframe_chain_guard ||
-           PreferUnlessWeaker(T_kf_prev * result.T_prev_cur, s.cov_keyframe_cur, T_kf_cur_kf,
-                              kf.est.covariance_prev_cur, &T_kf_cur, &cov_kept))) {
-        const SE3 refined = s.T_w_keyframe * T_kf_cur;
+          kf_inliers >= s.options.keyframe_min_inlier_ratio * f2f_inliers) {
+        const SE3 refined = s.T_w_keyframe * kf.est.T_cur_prev.inverse();
         const SE3 change = T_w_cur.inverse() * refined;
         if (refined.IsFinite() &&
             change.translation().norm() <= s.options.keyframe_max_correction &&
             change.RotationAngle() * 180.0 / M_PI <= s.options.keyframe_max_correction_deg) {
           T_w_cur = refined;
-          s.cov_keyframe_cur = cov_kept;
           result.keyframe_refined = true;
           // The increment follows the pose kept; the covariance stays the frame-to-frame
           // one (the keyframe selector chains increments since the keyframe).
@@ -611,13 +592,11 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     s.keyframe = cur;
     s.T_w_keyframe = s.T_w_c;
     s.has_keyframe = true;
-    s.cov_keyframe_cur.setZero();
   }
   if (usable > 0) {
     s.previous = std::move(cur);
     s.has_previous = true;
     s.T_w_previous = s.T_w_c;
-    s.cov_keyframe_previous = s.cov_keyframe_cur;
     s.frames_since_previous = 0;
   }
   if (tracked)

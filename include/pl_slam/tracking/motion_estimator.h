@@ -137,18 +137,6 @@ struct MotionEstimate {
 /// callers check success first).
 bool SigmaWithin(const Matrix6d& covariance, double max_m, double max_rad);
 
-/// Two estimates of one pose, each with the covariance of a left perturbation: b is taken
-/// wherever it is at least as certain as a, and a kept where b is weaker. In coordinates
-/// whitened by cov_a, along each principal direction of cov_b, whose variance there is lambda
-/// times a's: the whole way to b when lambda <= 1, 1 / lambda of the way otherwise. So a
-/// poorly constrained direction of b (a few clustered features trading a shift against a
-/// turn) leaves a in place, and b equal to a, or better, gives b. `cov` is the result's
-/// covariance with the two taken as independent (cov_b where b is taken). Returns false,
-/// leaving the outputs untouched, when an input is not finite or cov_a is not positive
-/// definite.
-bool PreferUnlessWeaker(const SE3& T_a, const Matrix6d& cov_a, const SE3& T_b,
-                        const Matrix6d& cov_b, SE3* T, Matrix6d* cov);
-
 /// Point residual r = pi(T P) - uv (pixels) and, when J is not null, its Jacobian dr/dd for the
 /// left perturbation T <- Exp(d) * T, d = [rho; phi]. Returns false and leaves r and J untouched
 /// when the transformed point's depth is not above min_depth (behind the camera, or NaN).

@@ -65,11 +65,6 @@ struct TrackerOptions {
   double keyframe_min_inlier_ratio = 0.5;
   double keyframe_max_correction = 0.05;     ///< larger change (m) is refused as a mismatch
   double keyframe_max_correction_deg = 2.0;  ///< larger change (deg) is refused
-  /// The keyframe refinement replaces the frame-to-frame chain since the keyframe only where
-  /// it is at least as certain (by their covariances): in a direction its matches leave poorly
-  /// constrained (a few clustered features trading a shift against a turn) the chain is kept.
-  /// false: the refinement replaces the chain in every direction.
-  bool keyframe_chain_guard = true;
   /// While lost, the pose follows the constant-velocity model for at most this many frames
   /// (reported with pose_valid false and `predicted` true), so tracking that resumes, or a
   /// rescue against the local map, starts where the camera is likely to be rather than where
