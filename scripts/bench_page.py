@@ -53,7 +53,15 @@ DESIGN_DECISIONS = [
      "The keyframe's stereo features are matched to the frame directly, so errors add up per "
      "keyframe instead of per frame. Together with line weight 8 it took the room's VO from 16.3 "
      "to 2.9 mm and fast_turn's drift from 2.27 to 0.62 %, for 0.2-0.7 ms per frame "
-     "(`keyframe_match`)."),
+     "(`keyframe_match`). The refinement replaces the chain of frame-to-frame poses outright. "
+     "Tried and not kept: comparing the two by their covariances and keeping the chain along "
+     "a direction the refinement leaves weaker (walking up to a textured wall, features "
+     "clustered on one poster put one refined frame 3.5 cm and 0.8 deg off). It took the "
+     "textured wall seeds 1 and 3 from 0.08 to 0.06 % of the path, but the shared KITTI clip's "
+     "slam from 0.505 to 0.579 m, and with `--doffs 1.28` its VO from 0.080 to 0.119 m: the "
+     "covariances leave out stereo depth noise, so under forward motion the chain looked more "
+     "certain along the road than it is. Keeping the chain only where the refinement is 4-25 "
+     "times weaker in variance restored KITTI but lost most of the wall's gain."),
     ("Tracking against the local map is on, and conservative (`mapping.track_local_map`)",
      "The local-map pose replaces the frame-to-frame one only with at least as many inliers and "
      "a correction under 2 cm / 0.25 deg. Replacing it whenever it succeeded made fast_turn worse "
