@@ -354,8 +354,15 @@ DirectReference BuildDirectReference(const StereoCamera& camera, const cv::Mat& 
     const LevelCamera cam = AtLevel(camera, static_cast<int>(l), ref.pyramid[l]);
     ref.intensity[l].reserve(ref.points.size());
     ref.gradient[l].reserve(ref.points.size());
-    cv::Mat lgx = gx, lgy = gy;  // level 0's were computed for the selection
-    if (l > 0) Gradients(ref.pyramid[l], &lgx, &lgy);
+    // Level 0's gradients were computed for the selection; the others get their own buffers
+    // (never written through a header that shares level 0's data).
+    cv::Mat lgx, lgy;
+    if (l == 0) {
+      lgx = gx;
+      lgy = gy;
+    } else {
+      Gradients(ref.pyramid[l], &lgx, &lgy);
+    }
     for (const Eigen::Vector3d& X : ref.points) {
       const double u = std::clamp(cam.fx * X.x() / X.z() + cam.cx, 0.0, cam.cols - 1.001);
       const double v = std::clamp(cam.fy * X.y() / X.z() + cam.cy, 0.0, cam.rows - 1.001);
