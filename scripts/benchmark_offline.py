@@ -59,6 +59,10 @@ import sys
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BIN = os.path.join(os.environ.get("PL_SLAM_WS", os.path.join(ROOT, ".ws")), "devel", "lib", "pl_slam")
+# The binaries load the libraries of the same workspace: through their RUNPATH, a copy of a
+# workspace would otherwise run with the libraries of the tree it was built in.
+os.environ["LD_LIBRARY_PATH"] = os.pathsep.join(
+    filter(None, [os.path.dirname(BIN), os.environ.get("LD_LIBRARY_PATH", "")]))
 SHARED = os.path.join(ROOT, "..", "shared", "datasets")
 
 SYNTHETIC = ["room", "corridor", "fast_turn"]
