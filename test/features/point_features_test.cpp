@@ -1,5 +1,7 @@
 #include <algorithm>
 #include <cmath>
+#include <tuple>
+#include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
@@ -164,6 +166,88 @@ TEST(PointDetector, ReportsUpperLevelKeypointsAtTheirImagePositions) {
     EXPECT_NEAR(y, std::round(y), 2e-3) << "octave " << k.octave << " at " << k.pt;
   }
   EXPECT_GT(upper, 50);
+}
+
+// The detector computes ORB's candidate ranking itself so that it measures orientations only
+// for the keypoints bucketing keeps; what it returns must be what OpenCV's ORB gives: its
+// detection, bucketed, then its descriptors. A wrong pyramid, border, Harris score, level share
+// or orientation changes the kept set, an angle or a descriptor bit (the vocabulary was trained
+// on OpenCV's). Checked on a textured image and on a poor one (the low-threshold second search).
+TEST(PointDetector, KeepsWhatOpenCvOrbKeeps) {
+  cv::RNG rng(11);
+  cv::Mat blocks(48, 94, CV_8UC1), textured;
+  rng.fill(blocks, cv::RNG::UNIFORM, 0, 256);
+  cv::resize(blocks, textured, cv::Size(752, 480), 0, 0, cv::INTER_NEAREST);
+  cv::GaussianBlur(textured, textured, cv::Size(3, 3), 0.8);
+  cv::Mat poor(480, 752, CV_8UC1, cv::Scalar(120));
+  for (int i = 0; i < 12; ++i) {
+    const cv::Rect r(rng.uniform(30, 680), rng.uniform(30, 420), rng.uniform(15, 50),
+                     rng.uniform(15, 50));
+    cv::rectangle(poor, r, cv::Scalar(120 + (i % 2 ? 12 : 40)), cv::FILLED);  // faint and strong
+  }
+  cv::Mat noise(poor.size(), CV_16S);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 2);
+  poor.convertTo(poor, CV_16S);
+  poor += noise;
+  poor.convertTo(poor, CV_8U);
+  const PointDetectorOptions opt;
+  for (const cv::Mat& img : {textured, poor}) {
+    const int pool = static_cast<int>(opt.max_points * opt.oversample);
+    cv::Ptr<cv::ORB> orb = cv::ORB::create(pool, static_cast<float>(opt.scale_factor), opt.levels,
+                                           19, 0, 2, cv::ORB::HARRIS_SCORE, 31, opt.fast_threshold);
+    std::vector<cv::KeyPoint> all;
+    orb->detect(img, all);
+    const bool second = static_cast<int>(all.size()) < opt.max_points;
+    EXPECT_EQ(second, img.data == poor.data) << "the poor image must take the second search";
+    if (second) {
+      std::vector<char> occupied(opt.grid_cols * opt.grid_rows, 0);
+      auto cell = [&](const cv::Point2f& p) {
+        return std::min(static_cast<int>(p.y * opt.grid_rows / img.rows), opt.grid_rows - 1) *
+                   opt.grid_cols +
+               std::min(static_cast<int>(p.x * opt.grid_cols / img.cols), opt.grid_cols - 1);
+      };
+      for (const cv::KeyPoint& k : all) occupied[cell(k.pt)] = 1;
+      std::vector<cv::KeyPoint> weak;
+      orb->setFastThreshold(opt.min_fast_threshold);
+      orb->detect(img, weak);
+      for (const cv::KeyPoint& k : weak)
+        if (!occupied[cell(k.pt)]) all.push_back(k);
+    }
+    std::vector<cv::KeyPoint> expected =
+        BucketKeypoints(all, img.size(), opt.grid_cols, opt.grid_rows, opt.max_points);
+    cv::Mat expected_desc;
+    orb->compute(img, expected, expected_desc);
+
+    std::vector<cv::KeyPoint> kp;
+    cv::Mat desc;
+    PointDetector(opt).Detect(img, &kp, &desc);
+    ASSERT_EQ(kp.size(), expected.size()) << (second ? "poor image" : "textured image");
+    ASSERT_GT(kp.size(), 100u);
+    // The same set, in whatever order: both sorted by level and position.
+    auto by_place = [](const std::vector<cv::KeyPoint>& k) {
+      std::vector<int> order(k.size());
+      for (std::size_t i = 0; i < k.size(); ++i) order[i] = static_cast<int>(i);
+      std::sort(order.begin(), order.end(), [&](int a, int b) {
+        return std::make_tuple(k[a].octave, k[a].pt.y, k[a].pt.x) <
+               std::make_tuple(k[b].octave, k[b].pt.y, k[b].pt.x);
+      });
+      return order;
+    };
+    const std::vector<int> oe = by_place(expected), ok = by_place(kp);
+    for (std::size_t n = 0; n < kp.size(); ++n) {
+      const int i = ok[n];
+      const cv::KeyPoint& e = expected[oe[n]];
+      const float s = static_cast<float>(std::pow(opt.scale_factor, e.octave));
+      const cv::Point2f at =
+          e.octave > 0 ? PyramidLevelToImage(e.pt / s, e.octave, img.size(), 1.2f) : e.pt;
+      ASSERT_EQ(kp[i].octave, e.octave) << i;
+      ASSERT_NEAR(kp[i].pt.x, at.x, 1e-3) << i;
+      ASSERT_NEAR(kp[i].pt.y, at.y, 1e-3) << i;
+      ASSERT_FLOAT_EQ(kp[i].angle, e.angle) << i;
+      ASSERT_FLOAT_EQ(kp[i].response, e.response) << i;
+      ASSERT_EQ(cv::norm(desc.row(i), expected_desc.row(oe[n]), cv::NORM_HAMMING), 0.0) << i;
+    }
+  }
 }
 
 TEST(PointDetector, OptionsValidationNamesTheKey) {

@@ -31,10 +31,12 @@ struct PointDetectorOptions {
 };
 
 /// Detects ORB keypoints and descriptors: a pool of oversample x max_points FAST/Harris
-/// candidates (ranked per pyramid level by OpenCV), then grid bucketing. A region with more
-/// corners than the whole pool (e.g. per-pixel noise) can still crowd out weak ones elsewhere.
-/// Detect() is const and may run concurrently from several threads (each call uses its own OpenCV
-/// detector).
+/// candidates ranked per pyramid level as OpenCV's ORB ranks them, then grid bucketing; the
+/// orientation is measured only for the keypoints kept, and OpenCV computes their descriptors
+/// (keypoints, orientations and descriptors equal cv::ORB's detect + bucketing + compute). A
+/// region with more corners than the whole pool (e.g. per-pixel noise) can still crowd out weak
+/// ones elsewhere. Detect() is const and may run concurrently from several threads (each call
+/// has its own pyramid and OpenCV descriptor extractor).
 class PointDetector {
  public:
   /// Throws ConfigError on invalid options.
