@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <string>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -111,13 +112,15 @@ constexpr int kPatchSize = 31;
 constexpr int kHarrisBlock = 7;
 constexpr float kHarrisK = 0.04f;
 
-// Level l is level l-1 resized to round(size / s^l), as ORB builds its pyramid.
+// Level l is level l-1 resized to round(size / s^l), as ORB builds its pyramid. Levels that
+// would be less than a pixel wide or high stay empty.
 std::vector<cv::Mat> BuildPyramid(const cv::Mat& image, int levels, double scale_factor) {
   std::vector<cv::Mat> pyr(static_cast<std::size_t>(levels));
   pyr[0] = image;
   for (int l = 1; l < levels; ++l) {
     const double s = std::pow(scale_factor, l);
     const cv::Size size(cvRound(image.cols / s), cvRound(image.rows / s));
+    if (size.width < 1 || size.height < 1) break;
     cv::resize(pyr[l - 1], pyr[l], size, 0, 0, cv::INTER_LINEAR_EXACT);
   }
   return pyr;
@@ -214,7 +217,7 @@ std::vector<cv::KeyPoint> Candidates(const std::vector<cv::Mat>& pyr, int thresh
   const std::vector<int> share = FeaturesPerLevel(total, levels, scale_factor);
   std::vector<cv::KeyPoint> all, level;
   for (int l = 0; l < levels; ++l) {
-    if (share[l] <= 0) continue;
+    if (share[l] <= 0 || pyr[l].empty()) continue;
     level.clear();
     cv::FAST(pyr[l], level, threshold, true);
     cv::KeyPointsFilter::runByImageBorder(level, pyr[l].size(), kEdgeThreshold);
@@ -239,6 +242,10 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
   keypoints->clear();
   *descriptors = cv::Mat();
   if (image.empty()) return;
+  if (image.type() != CV_8UC1) {
+    throw InputError("PointDetector::Detect: image must be CV_8UC1, got type " +
+                     std::to_string(image.type()));
+  }
   const int candidates = static_cast<int>(options_.max_points * options_.oversample);
   const double sf = options_.scale_factor;
   const std::vector<cv::Mat> pyr = BuildPyramid(image, options_.levels, sf);

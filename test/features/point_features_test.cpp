@@ -92,6 +92,30 @@ TEST(PointDetector, EmptyAndUniformImagesGiveNothing) {
   EXPECT_TRUE(desc.empty());
 }
 
+// Bad input gets a clear error or nothing, never a crash: a colour image is refused by name, an
+// image too small for the pyramid (levels under a pixel) gives what its levels hold.
+TEST(PointDetector, OddImagesAreRefusedOrGiveNothing) {
+  PointDetector det{PointDetectorOptions()};
+  std::vector<cv::KeyPoint> kp;
+  cv::Mat desc;
+  try {
+    det.Detect(cv::Mat(480, 752, CV_8UC3, cv::Scalar(10, 20, 30)), &kp, &desc);
+    FAIL() << "a colour image was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("CV_8UC1"), std::string::npos) << e.what();
+  }
+  PointDetectorOptions deep;
+  deep.levels = 12;
+  deep.scale_factor = 2.0;
+  cv::Mat small(24, 40, CV_8UC1);
+  cv::RNG(5).fill(small, cv::RNG::UNIFORM, 0, 256);
+  EXPECT_NO_THROW(PointDetector(deep).Detect(small, &kp, &desc));
+  EXPECT_TRUE(kp.empty());  // every pixel lies within ORB's 19 px border
+  cv::Mat tiny(1, 1, CV_8UC1, cv::Scalar(3));
+  EXPECT_NO_THROW(PointDetector(deep).Detect(tiny, &kp, &desc));
+  EXPECT_TRUE(kp.empty());
+}
+
 // Builds OpenCV ORB's pyramid the way ORB does (each level resized from the one before to the
 // rounded size) and finds a blurred blob in each level: its level position mapped back must
 // land where the blob is in the full image. Scaling by s^level alone (what ORB reports) is off
