@@ -98,9 +98,9 @@ DESIGN_DECISIONS = [
      "the last is mapped. Points + lines, keyframe ATE 9.2 / 3.3 / 3.3 / 2.8 / 22.0 -> 12.1 / "
      "2.2 / 3.9 / 4.2 / 28.3 mm; points only 35.3 / 13.4 / 6.3 / 10.4 / 51.6 -> 35.3 / 12.6 "
      "/ 6.3 / 10.0 / 52.9 mm. Optimised longer, the line terms move the map away from the "
-     "truth on four of the five; with the observed-endpoint residual less so (5.5 / 4.3 / 3.9 / 2.7 / 30.3 mm). "
-     "Where that bias comes from (segment extents, associations of parallel edges) is not "
-     "known yet."),
+     "truth on four of the five; with the observed-endpoint residual less so (5.5 / 4.3 / "
+     "3.9 / 2.7 / 30.3 mm). Where that bias comes from (segment extents, associations of "
+     "parallel edges) is not known yet."),
     ("Point detection ranks ORB's candidates itself",
      "OpenCV's ORB measures the orientation of every candidate in the pool (oversample 8: "
      "about 5700 on a street image), of which bucketing keeps 800. The detector ranks the "

@@ -262,8 +262,10 @@ TEST(PointDetector, KeepsWhatOpenCvOrbKeeps) {
       const int i = ok[n];
       const cv::KeyPoint& e = expected[oe[n]];
       const float s = static_cast<float>(std::pow(opt.scale_factor, e.octave));
-      const cv::Point2f at =
-          e.octave > 0 ? PyramidLevelToImage(e.pt / s, e.octave, img.size(), 1.2f) : e.pt;
+      const cv::Point2f at = e.octave > 0
+                                 ? PyramidLevelToImage(e.pt / s, e.octave, img.size(),
+                                                       static_cast<float>(opt.scale_factor))
+                                 : e.pt;
       ASSERT_EQ(kp[i].octave, e.octave) << i;
       ASSERT_NEAR(kp[i].pt.x, at.x, 1e-3) << i;
       ASSERT_NEAR(kp[i].pt.y, at.y, 1e-3) << i;
