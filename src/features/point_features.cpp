@@ -209,10 +209,10 @@ float CentroidAngle(const cv::Mat& img, cv::Point2f p) {
 
 // ORB's candidates at one FAST threshold: per level, the 2n strongest FAST corners away from
 // the border, of which the n with the best Harris score stay (n: the level's share of `total`).
-// Positions as ORB reports them: level coordinates times s^level. No orientation yet: it is
-// computed for the few that survive bucketing.
+// Positions as ORB reports them: level coordinates times s^level (`level_scale`). No orientation
+// yet: it is computed for the few that survive bucketing.
 std::vector<cv::KeyPoint> Candidates(const std::vector<cv::Mat>& pyr, int threshold, int total,
-                                     double scale_factor) {
+                                     double scale_factor, const std::vector<float>& level_scale) {
   const int levels = static_cast<int>(pyr.size());
   const std::vector<int> share = FeaturesPerLevel(total, levels, scale_factor);
   std::vector<cv::KeyPoint> all, level;
@@ -224,7 +224,7 @@ std::vector<cv::KeyPoint> Candidates(const std::vector<cv::Mat>& pyr, int thresh
     cv::KeyPointsFilter::retainBest(level, 2 * share[l]);
     for (cv::KeyPoint& kp : level) kp.response = HarrisScore(pyr[l], kp.pt);
     cv::KeyPointsFilter::retainBest(level, share[l]);
-    const float s = static_cast<float>(std::pow(scale_factor, l));
+    const float s = level_scale[l];
     for (cv::KeyPoint& kp : level) {
       kp.octave = l;
       kp.size = kPatchSize * s;
@@ -249,9 +249,13 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
   const int candidates = static_cast<int>(options_.max_points * options_.oversample);
   const double sf = options_.scale_factor;
   const std::vector<cv::Mat> pyr = BuildPyramid(image, options_.levels, sf);
+  std::vector<float> level_scale(pyr.size());  // s^level
+  for (std::size_t l = 0; l < pyr.size(); ++l)
+    level_scale[l] = static_cast<float>(std::pow(sf, static_cast<double>(l)));
   // ORB's keypoints (FAST, ranked by Harris per level), computed here so that the orientation
   // is measured only for the keypoints bucketing keeps, not for the whole candidate pool.
-  std::vector<cv::KeyPoint> all = Candidates(pyr, options_.fast_threshold, candidates, sf);
+  std::vector<cv::KeyPoint> all =
+      Candidates(pyr, options_.fast_threshold, candidates, sf, level_scale);
   // A textured image fills the pool at the normal threshold; a poor one (fewer corners in all
   // than are to be kept: plain walls) is searched again at the low-contrast threshold, on
   // every pyramid level, and as ORB-SLAM does, only the grid cells the normal threshold left
@@ -267,17 +271,16 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
     };
     std::vector<char> occupied(static_cast<std::size_t>(cols * rows), 0);
     for (const cv::KeyPoint& kp : all) occupied[cell(kp.pt)] = 1;
-    for (const cv::KeyPoint& kp : Candidates(pyr, options_.min_fast_threshold, candidates, sf))
+    for (const cv::KeyPoint& kp :
+         Candidates(pyr, options_.min_fast_threshold, candidates, sf, level_scale))
       if (!occupied[cell(kp.pt)]) all.push_back(kp);
   }
   if (all.empty()) return;
   *keypoints = BucketKeypoints(all, image.size(), options_.grid_cols, options_.grid_rows,
                                options_.max_points);
+  for (cv::KeyPoint& kp : *keypoints)
+    kp.angle = CentroidAngle(pyr[kp.octave], kp.pt / level_scale[kp.octave]);
   const float sff = static_cast<float>(sf);
-  for (cv::KeyPoint& kp : *keypoints) {
-    const float s = static_cast<float>(std::pow(sf, kp.octave));
-    kp.angle = CentroidAngle(pyr[kp.octave], kp.pt / s);
-  }
   // Descriptors only for the kept keypoints, at their orientation (ORB may drop a few near the
   // border).
   cv::Ptr<cv::ORB> orb =
@@ -287,8 +290,7 @@ void PointDetector::Detect(const cv::Mat& image, std::vector<cv::KeyPoint>* keyp
   // Descriptors are computed; now move the keypoints to where they are in the image.
   for (cv::KeyPoint& kp : *keypoints) {
     if (kp.octave <= 0) continue;
-    const float s = static_cast<float>(std::pow(sf, kp.octave));
-    kp.pt = PyramidLevelToImage(kp.pt / s, kp.octave, image.size(), sff);
+    kp.pt = PyramidLevelToImage(kp.pt / level_scale[kp.octave], kp.octave, image.size(), sff);
   }
 }
 
