@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstring>
 #include <sstream>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
 
 namespace pl_slam {
 
@@ -24,6 +27,12 @@ std::string PointMatchingOptions::Validate() const {
     os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
   else if (!(search_radius > 0.0 && search_radius <= 1000.0))
     os << "search_radius=" << search_radius << " must be in (0, 1000]";
+  else if (row_search_below < 0)
+    os << "row_search_below=" << row_search_below << " must be >= 0";
+  else if (!(row_search_min_zncc >= 0.0 && row_search_min_zncc <= 1.0))
+    os << "row_search_min_zncc=" << row_search_min_zncc << " must be in [0, 1]";
+  else if (!(row_search_margin >= 0.0 && row_search_margin <= 2.0))
+    os << "row_search_margin=" << row_search_margin << " must be in [0, 2]";
   return os.str();
 }
 
@@ -136,6 +145,81 @@ bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, doubl
   return true;
 }
 
+/// Box sums of the right image for SearchRow, computed on first use (most frames need none).
+struct RightSums {
+  cv::Mat sum, sqsum;  // cv::integral of the right image: CV_32S and CV_64F
+  void Ensure(const cv::Mat& right) {
+    if (sum.empty()) cv::integral(right, sum, sqsum, CV_32S, CV_64F);
+  }
+};
+
+/// Searches the right image's row v0 for the 11x11 patch around left pixel (u0, v0), over the
+/// right columns [c0, c1]: the column of the highest zero-mean normalised cross-correlation, with
+/// a parabola through it and its neighbours. False when the best is under min_zncc, on the
+/// range's border, or not `margin` above every column more than 2 px from it (a repeated or
+/// edge-like patch), or when the left patch is flat.
+bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u0, int v0, int c0,
+               int c1, double min_zncc, double margin, double* ur) {
+  constexpr int kHalf = 5, kN = 2 * kHalf + 1, kMaxRange = 1024;
+  if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols)
+    return false;
+  c0 = std::max(c0, kHalf);
+  c1 = std::min(c1, right.cols - 1 - kHalf);
+  const int n = c1 - c0 + 1;
+  if (n < 5 || n > kMaxRange) return false;
+  float lz[kN * kN];
+  double mean = 0.0;
+  for (int dy = 0; dy < kN; ++dy) {
+    const uint8_t* lp = left.ptr<uint8_t>(v0 - kHalf + dy) + u0 - kHalf;
+    for (int dx = 0; dx < kN; ++dx) mean += lz[dy * kN + dx] = lp[dx];
+  }
+  mean /= kN * kN;
+  double var_l = 0.0;
+  for (float& x : lz) {
+    x = static_cast<float>(x - mean);
+    var_l += static_cast<double>(x) * x;
+  }
+  if (var_l < 1e-6) return false;
+  // sum(lz * r) per column: lz has zero mean, so the right patch's mean drops out. One
+  // vectorisable pass over the columns per patch pixel.
+  float cross[kMaxRange];
+  std::fill(cross, cross + n, 0.f);
+  for (int dy = 0; dy < kN; ++dy) {
+    const uint8_t* rp = right.ptr<uint8_t>(v0 - kHalf + dy) + c0 - kHalf;
+    for (int dx = 0; dx < kN; ++dx) {
+      const float w = lz[dy * kN + dx];
+      const uint8_t* r = rp + dx;
+      for (int c = 0; c < n; ++c) cross[c] += w * static_cast<float>(r[c]);
+    }
+  }
+  sums->Ensure(right);
+  const int* s0 = sums->sum.ptr<int>(v0 - kHalf) + c0 - kHalf;
+  const int* s1 = sums->sum.ptr<int>(v0 + kHalf + 1) + c0 - kHalf;
+  const double* q0 = sums->sqsum.ptr<double>(v0 - kHalf) + c0 - kHalf;
+  const double* q1 = sums->sqsum.ptr<double>(v0 + kHalf + 1) + c0 - kHalf;
+  int best = -1;
+  double best_z = -2.0;
+  std::vector<double> z(n);
+  for (int c = 0; c < n; ++c) {
+    const double sr = static_cast<double>(s1[c + kN] - s1[c] - s0[c + kN] + s0[c]);
+    const double srr = q1[c + kN] - q1[c] - q0[c + kN] + q0[c];
+    const double var_r = srr - sr * sr / (kN * kN);
+    z[c] = var_r > 1e-6 ? cross[c] / std::sqrt(var_l * var_r) : -1.0;
+    if (z[c] > best_z) {
+      best_z = z[c];
+      best = c;
+    }
+  }
+  if (best_z < min_zncc || best == 0 || best == n - 1) return false;
+  for (int c = 0; c < n; ++c)
+    if (std::abs(c - best) > 2 && z[c] > best_z - margin) return false;
+  const double denom = z[best - 1] - 2.0 * z[best] + z[best + 1];
+  const double delta =
+      denom < 0.0 ? std::clamp(0.5 * (z[best - 1] - z[best + 1]) / denom, -0.5, 0.5) : 0.0;
+  *ur = c0 + best + delta;
+  return true;
+}
+
 }  // namespace
 
 namespace {
@@ -179,7 +263,8 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
     (*points)[i].uv = Eigen::Vector2d(left_kp[i].pt.x, left_kp[i].pt.y);
     (*points)[i].octave = left_kp[i].octave;
   }
-  if (left_kp.empty() || right_kp.empty() || left_desc.empty() || right_desc.empty()) return 0;
+  if (left_kp.empty()) return 0;
+  const bool descriptors = !right_kp.empty() && !left_desc.empty() && !right_desc.empty();
   const int rows = std::max(1, right_image.rows > 0 ? right_image.rows : camera.height);
 
   // Right keypoints by image row: a left keypoint only looks at its epipolar band.
@@ -191,7 +276,7 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
   std::vector<int> match_of_left(left_kp.size(), -1);
   std::vector<int> best_left_of_right(right_kp.size(), -1),
       best_dist_of_right(right_kp.size(), INT_MAX);
-  for (int i = 0; i < static_cast<int>(left_kp.size()); ++i) {
+  for (int i = 0; descriptors && i < static_cast<int>(left_kp.size()); ++i) {
     const cv::KeyPoint& kl = left_kp[i];
     const double tol = options.stereo_row_tolerance * std::pow(1.2, kl.octave);
     const int r0 = std::max(0, static_cast<int>(std::floor(kl.pt.y - tol)));
@@ -211,13 +296,37 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
     if (!search.Passes(options.max_distance, options.stereo_ratio)) continue;
     match_of_left[i] = search.best_index;
   }
+  const bool images = !left_image.empty() && !right_image.empty() && left_image.type() == CV_8UC1 &&
+                      right_image.type() == CV_8UC1 && left_image.size() == right_image.size();
+  int descriptor_matches = 0;
+  for (int i = 0; i < static_cast<int>(left_kp.size()); ++i)
+    descriptor_matches += match_of_left[i] >= 0 && best_left_of_right[match_of_left[i]] == i;
+  const bool row_search =
+      images && options.row_search_min_zncc > 0.0 && descriptor_matches < options.row_search_below;
+  RightSums sums;
   int matched = 0;
   for (int i = 0; i < static_cast<int>(left_kp.size()); ++i) {
-    const int j = match_of_left[i];
-    if (j < 0 || best_left_of_right[j] != i) continue;  // mutual best only
+    int j = match_of_left[i];
+    if (j >= 0 && best_left_of_right[j] != i) j = -1;  // mutual best only
     PointFeature& pf = (*points)[i];
-    double ur = right_kp[j].pt.x;
-    if (options.subpixel && !left_image.empty() && !right_image.empty()) {
+    double ur = 0.0;
+    if (j >= 0) {
+      ur = right_kp[j].pt.x;
+    } else {
+      // No right keypoint: the row itself, over the disparity range (measured disparity =
+      // true - doffs).
+      if (!row_search) continue;
+      const int u0 = static_cast<int>(std::lround(pf.uv.x()));
+      const int c0 =
+          static_cast<int>(std::floor(pf.uv.x() - (options.max_disparity - camera.doffs)));
+      const int c1 =
+          static_cast<int>(std::ceil(pf.uv.x() - (options.min_disparity - camera.doffs)));
+      if (!SearchRow(left_image, right_image, &sums, u0, static_cast<int>(std::lround(pf.uv.y())),
+                     c0, c1, options.row_search_min_zncc, options.row_search_margin, &ur))
+        continue;
+      ur += pf.uv.x() - u0;  // the patch was centred on the rounded column
+    }
+    if (options.subpixel && images) {
       RefineDisparity(left_image, right_image, pf.uv.x(), pf.uv.y(), &ur);
     }
     const double d = pf.uv.x() - ur;

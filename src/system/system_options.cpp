@@ -69,6 +69,13 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.point_matching.min_disparity", &pm.min_disparity, "smallest stereo disparity, px");
   t.Add("tracker.point_matching.max_disparity", &pm.max_disparity, "largest stereo disparity, px");
   t.Add("tracker.point_matching.subpixel", &pm.subpixel, "refine disparities by patch correlation");
+  t.Add("tracker.point_matching.row_search_below", &pm.row_search_below,
+        "images with fewer stereo points from descriptors: keypoints without a right keypoint "
+        "are looked for along their row by correlation");
+  t.Add("tracker.point_matching.row_search_min_zncc", &pm.row_search_min_zncc,
+        "row search: ZNCC a match must reach (0 = no row search)");
+  t.Add("tracker.point_matching.row_search_margin", &pm.row_search_margin,
+        "row search: ZNCC by which the best column beats every other more than 2 px away");
   t.Add("tracker.point_matching.f2f_ratio", &pm.f2f_ratio, "frame-to-frame ratio test");
   t.Add("tracker.point_matching.search_radius", &pm.search_radius,
         "guided frame-to-frame search radius, px");

@@ -120,6 +120,74 @@ TEST(PointMatching, SubpixelDisparitiesDoNotLeanTowardsWholePixels) {
   EXPECT_LT(worst_bias, 0.04);
 }
 
+// Where the right image's detector misses a corner (no right keypoint at all here), the row
+// search finds it by correlation: most left keypoints get a depth, as precise as the
+// descriptor matches' (the test above). Off, none do.
+TEST(PointMatching, RowSearchFindsCornersTheRightDetectorMissed) {
+  const auto seq = Room();
+  const StereoFrame f = seq.Render(10);
+  const cv::Mat depth = seq.RenderDepth(10);
+  PointDetector det{PointDetectorOptions()};
+  std::vector<cv::KeyPoint> kl;
+  cv::Mat dl;
+  det.Detect(f.left, &kl, &dl);
+  ASSERT_GT(kl.size(), 500u);
+  PointMatchingOptions mo;
+  PointFeatures points;
+  const int stereo =
+      MatchStereoPoints(seq.camera(), f.left, f.right, kl, dl, {}, cv::Mat(), mo, &points);
+  EXPECT_GT(stereo, static_cast<int>(kl.size() / 2));
+  std::vector<double> err;
+  for (const auto& p : points) {
+    if (!p.has_depth) continue;
+    const float z = depth.at<float>(static_cast<int>(std::lround(p.uv.y())),
+                                    static_cast<int>(std::lround(p.uv.x())));
+    if (z > 0.f) err.push_back(std::abs(seq.camera().DisparityFromDepth(z) - p.disparity));
+  }
+  ASSERT_GT(err.size(), kl.size() / 2);
+  std::sort(err.begin(), err.end());
+  const double within =
+      static_cast<double>(std::upper_bound(err.begin(), err.end(), 1.0) - err.begin()) / err.size();
+  std::cout << stereo << " of " << kl.size() << " keypoints found along the row, median |disparity "
+            << "error| " << err[err.size() / 2] << " px, within 1 px " << 100.0 * within << "%\n";
+  EXPECT_GT(within, 0.97);
+  EXPECT_LT(err[err.size() / 2], 0.1);
+
+  mo.row_search_min_zncc = 0.0;
+  EXPECT_EQ(MatchStereoPoints(seq.camera(), f.left, f.right, kl, dl, {}, cv::Mat(), mo, &points),
+            0);
+}
+
+// A patch that repeats along the row (stripes) or has no texture matches several columns, or
+// none, equally well: the row search gives no depth rather than a guess.
+TEST(PointMatching, RowSearchRefusesRepeatedAndFlatPatches) {
+  StereoCamera cam;
+  cam.fx = cam.fy = 450.0;
+  cam.cx = 375.5;
+  cam.cy = 239.5;
+  cam.baseline = 0.11;
+  cam.width = 752;
+  cam.height = 480;
+  cv::Mat stripes(480, 752, CV_8UC1), flat(480, 752, CV_8UC1, cv::Scalar(128));
+  for (int c = 0; c < stripes.cols; ++c)
+    stripes.col(c).setTo(cv::Scalar(128 + 60 * std::sin(2.0 * M_PI * c / 12.0)));
+  // The right image is the left one shifted by 20 px: the true match is among the repeats.
+  cv::Mat stripes_right = cv::Mat::zeros(stripes.size(), CV_8UC1);
+  stripes(cv::Rect(20, 0, stripes.cols - 20, stripes.rows))
+      .copyTo(stripes_right(cv::Rect(0, 0, stripes.cols - 20, stripes.rows)));
+  std::vector<cv::KeyPoint> kl;
+  for (int v = 40; v < 440; v += 40)
+    for (int u = 250; u < 700; u += 37) kl.emplace_back(static_cast<float>(u), v, 31.f);
+  const cv::Mat desc(static_cast<int>(kl.size()), 32, CV_8UC1, cv::Scalar(0));
+  PointFeatures points;
+  EXPECT_EQ(MatchStereoPoints(cam, stripes, stripes_right, kl, desc, {}, cv::Mat(),
+                              PointMatchingOptions(), &points),
+            0);
+  EXPECT_EQ(
+      MatchStereoPoints(cam, flat, flat, kl, desc, {}, cv::Mat(), PointMatchingOptions(), &points),
+      0);
+}
+
 TEST(PointMatching, FrameToFrameMatchesAreConsistentWithTheTruePose) {
   const auto seq = Room();
   PointMatchingOptions mo;

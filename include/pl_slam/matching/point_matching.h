@@ -24,8 +24,16 @@ struct PointMatchingOptions {
   double min_disparity = 0.5;    ///< stereo: smaller disparities are rejected (pixels)
   double max_disparity = 200.0;  ///< stereo: largest disparity searched (pixels)
   bool subpixel = true;          ///< stereo: refine the disparity by patch correlation
-  double f2f_ratio = 0.8;        ///< frame to frame: best < ratio * second best
-  double search_radius = 30.0;   ///< frame to frame with a prediction: radius, pixels
+  /// Stereo, in an image where descriptor matching gave fewer than row_search_below stereo
+  /// points: a left keypoint left without a partner (the right image's detector missed that
+  /// corner, common at low contrast) is looked for along its row by zero-mean normalised
+  /// cross-correlation (ZNCC) of an 11x11 patch; accepted when the best column reaches
+  /// row_search_min_zncc and beats every column more than 2 px away by row_search_margin.
+  int row_search_below = 150;
+  double row_search_min_zncc = 0.9;  ///< see row_search_below; 0 = no row search
+  double row_search_margin = 0.2;    ///< see row_search_below
+  double f2f_ratio = 0.8;            ///< frame to frame: best < ratio * second best
+  double search_radius = 30.0;       ///< frame to frame with a prediction: radius, pixels
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
   std::string Validate() const;
@@ -36,8 +44,9 @@ int HammingDistance32(const uint8_t* a, const uint8_t* b);
 
 /// Builds the left-image point features from left and right keypoints: every left keypoint
 /// becomes a PointFeature, with has_depth/disparity/p_c set when it has a mutual-best stereo
-/// match on its epipolar row within the disparity range passing the ratio test. Returns the
-/// number of stereo matches.
+/// match on its epipolar row within the disparity range passing the ratio test, or else (see
+/// row_search_min_zncc) a unique correlation peak on its row. Returns the number of stereo
+/// matches.
 int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
                       const cv::Mat& right_image, const std::vector<cv::KeyPoint>& left_kp,
                       const cv::Mat& left_desc, const std::vector<cv::KeyPoint>& right_kp,
