@@ -45,7 +45,9 @@ constexpr char kUsage[] =
 
 // The map as one bundle adjustment problem, built as local mapping builds its windows
 // (BuildBaWindowLocked): landmarks seen at least twice, stereo residuals except for points
-// beyond stereo_max_depth_baselines, pyramid-level weights, the line weight.
+// beyond stereo_max_depth_baselines, pyramid-level weights, the line weight. Point
+// observations are the detected positions: map files do not keep mapping.align_points'
+// offsets.
 pl_slam::BaProblem BuildProblem(const pl_slam::MapContents& m, const pl_slam::StereoCamera& cam,
                                 const pl_slam::SystemOptions& so) {
   pl_slam::BaProblem p;

@@ -117,6 +117,7 @@ LandmarkId Map::AddPointLocked(const Eigen::Vector3d& p_w, KeyframeId kf_id, int
   lm->reference = kf_id;
   lm->created_at = keyframes_inserted_;
   kf->point_landmarks[index] = lm->id;
+  if (index < static_cast<int>(kf->point_offsets.size())) kf->point_offsets[index].setZero();
   points_[lm->id] = lm;
   ++version_;
   return lm->id;
@@ -151,6 +152,8 @@ bool Map::AddPointObservationLocked(LandmarkId lm_id, KeyframeId kf_id, int inde
     return false;
   lm->observations[kf_id] = index;
   kf->point_landmarks[index] = lm_id;
+  // An alignment offset belongs to the landmark it was aligned for.
+  if (index < static_cast<int>(kf->point_offsets.size())) kf->point_offsets[index].setZero();
   ++version_;
   return true;
 }
@@ -172,7 +175,11 @@ void Map::RemovePointObservationLocked(LandmarkId lm_id, KeyframeId kf_id) {
   if (!lm) return;
   auto it = lm->observations.find(kf_id);
   if (it == lm->observations.end()) return;
-  if (const auto kf = KeyframeLocked(kf_id)) kf->point_landmarks[it->second] = kNoId;
+  if (const auto kf = KeyframeLocked(kf_id)) {
+    kf->point_landmarks[it->second] = kNoId;
+    if (it->second < static_cast<int>(kf->point_offsets.size()))
+      kf->point_offsets[it->second].setZero();
+  }
   lm->observations.erase(it);
   if (lm->observations.empty()) {
     points_.erase(lm_id);
@@ -239,6 +246,12 @@ void MoveObservations(Landmark* from, Landmark* into, GetKeyframe get_keyframe, 
 bool Map::FusePointLocked(LandmarkId from, LandmarkId into) {
   const auto a = PointLocked(from), b = PointLocked(into);
   if (!a || !b || from == into) return false;
+  // Observations aligned to `from`'s patch are not aligned to `into`'s.
+  for (const auto& [k, index] : a->observations) {
+    const auto kf = KeyframeLocked(k);
+    if (kf && index >= 0 && index < static_cast<int>(kf->point_offsets.size()))
+      kf->point_offsets[index].setZero();
+  }
   MoveObservations(
       a.get(), b.get(), [this](KeyframeId k) { return KeyframeLocked(k); },
       [](Keyframe& kf) -> std::vector<LandmarkId>& { return kf.point_landmarks; });

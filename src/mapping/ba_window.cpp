@@ -86,14 +86,18 @@ bool BuildBaWindowLocked(const Context& ctx, const std::vector<KeyframeId>& free
     for (const auto& [k, index] : p->observations) {
       auto it = pose_index.find(k);
       if (it == pose_index.end()) continue;
-      const PointFeature& f = map.KeyframeLocked(k)->features.points[index];
+      const auto kf = map.KeyframeLocked(k);
+      const PointFeature& f = kf->features.points[index];
       BaPointObservation o;
       o.pose = it->second;
       o.point = static_cast<int>(i);
       o.uv = f.uv;
+      // Where the landmark's patch aligned (point_alignment.h); the disparity stays.
+      if (index < static_cast<int>(kf->point_offsets.size()))
+        o.uv += kf->point_offsets[index].cast<double>();
       o.stereo =
           stereo && f.has_depth && ctx.camera.TrueDisparity(f.disparity) >= min_true_disparity;
-      o.u_right = f.uv.x() - f.disparity;
+      o.u_right = o.uv.x() - f.disparity;
       o.sqrt_info = PointSqrtInfo(ctx, f.octave);
       problem.point_obs.push_back(o);
       w.point_obs_ids.emplace_back(w.point_ids[i], k);

@@ -347,6 +347,9 @@ void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
   const auto covisible = map.CovisibleLocked(kf->id, 1);
   if (!covisible.empty()) kf->parent = covisible.front().first;
   map.TouchLocked();
+  lock.unlock();
+  if (ctx.options.align_points && !input->left_image.empty())
+    AlignPointObservations(ctx, kf.get(), input->left_image);
 }
 
 }  // namespace mapping

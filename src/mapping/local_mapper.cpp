@@ -54,6 +54,7 @@ std::string MappingOptions::Validate() const {
 struct LocalMapper::Impl {
   mapping::Context ctx;
   mapping::LineTracks line_tracks;
+  mapping::PreviousImage previous_image;
   mutable std::mutex mutex;  // guards queue, busy, stop and stats (never held with the map's)
   std::condition_variable work_cv, idle_cv;
   std::deque<KeyframeInput> queue;
@@ -265,6 +266,7 @@ LocalMapper::LocalMapper(const StereoCamera& camera, const MappingOptions& optio
   impl_->ctx.front_end = front_end;
   impl_->ctx.map = map;
   impl_->ctx.line_tracks = &impl_->line_tracks;
+  impl_->ctx.previous_image = &impl_->previous_image;
   if (options.threaded) impl_->thread = std::thread([this] { impl_->Run(); });
 }
 
@@ -319,6 +321,7 @@ void LocalMapper::Clear() {
   // Threaded: the mapping thread is idle and needs the mutex to go on; else this is its thread.
   impl_->followup_countdown = -1;
   impl_->line_tracks.clear();
+  impl_->previous_image = mapping::PreviousImage();
 }
 
 void LocalMapper::SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& options) {

@@ -22,13 +22,21 @@ namespace mapping {
 /// started ({kNoId, -1}: none). Only the mapping thread uses it.
 using LineTracks = std::unordered_map<KeyframeId, std::vector<std::pair<KeyframeId, int>>>;
 
+/// The last inserted keyframe's left image: landmarks made from its features take their
+/// alignment patch from it (mapping/point_alignment.h). Only the mapping thread uses it.
+struct PreviousImage {
+  KeyframeId id = kNoId;
+  cv::Mat image;
+};
+
 /// Everything a step needs.
 struct Context {
   StereoCamera camera;
   MappingOptions options;
   MappingFrontEnd front_end;
   Map* map = nullptr;
-  LineTracks* line_tracks = nullptr;  ///< owned by LocalMapper; null: no line triangulation
+  LineTracks* line_tracks = nullptr;        ///< owned by LocalMapper; null: no line triangulation
+  PreviousImage* previous_image = nullptr;  ///< owned by LocalMapper; null: no patches
 };
 
 /// Two-view triangulation of a segment neither view has a stereo depth for (one nearly along
@@ -43,8 +51,15 @@ bool TriangulateLine(const StereoCamera& cam, const SE3& T_w_a, const LineFeatur
 
 /// Inserts the keyframe: pose refinement against the previous keyframe, observations of
 /// existing landmarks (tracking's associations, previous-keyframe matches, local-map search)
-/// and new landmarks from its remaining stereo features.
+/// and new landmarks from its remaining stereo features; then, with options.align_points and
+/// an image, AlignPointObservations.
 void InsertKeyframe(const Context& ctx, KeyframeInput* input);
+
+/// Takes the patches of landmarks made from keyframe `kf`'s (or the previous keyframe's)
+/// features and moves kf's other point observations to where their landmark's patch aligns
+/// in `image` (Keyframe::point_offsets). Observations whose view warps the reference patch
+/// (scale, shear or rotation) by more than 8 % are left as detected.
+void AlignPointObservations(const Context& ctx, Keyframe* kf, const cv::Mat& image);
 
 /// A part of the map copied into a bundle adjustment problem, with the ids to write it back.
 struct BaWindow {

@@ -472,6 +472,7 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
     kf.stamp_s = frame.stamp_s();
     kf.T_w_c = result->T_w_c;
     kf.features = s.tracker->last_features();
+    if (s.options.mapping.align_points) kf.left_image = frame.left.clone();
     if (tracked.success) {
       kf.point_associations = tracked.point_associations;
       kf.line_associations = tracked.line_associations;

@@ -249,6 +249,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "limit)");
   t.Add("mapping.line_weight", &mp.line_weight,
         "information of a line residual relative to a point's in mapping");
+  t.Add("mapping.align_points", &mp.align_points,
+        "bundle adjustment places point observations where the landmark's reference patch "
+        "aligns (not at the detected corner)");
   t.Add("mapping.fuse_duplicates", &mp.fuse_duplicates,
         "merge landmarks mapped twice (keyframe vs local map) after insertion");
   t.Add("mapping.interpolate_trajectory", &mp.interpolate_trajectory,

@@ -46,8 +46,12 @@ struct Keyframe {
   StereoFeatures features;                  ///< immutable after insertion
   std::vector<LandmarkId> point_landmarks;  ///< per point feature; kNoId when none
   std::vector<LandmarkId> line_landmarks;   ///< per line feature; kNoId when none
-  KeyframeId parent = kNoId;                ///< spanning-tree parent (kNoId for the root)
-  std::set<KeyframeId> loop_edges;          ///< keyframes joined by an accepted loop
+  /// Per point feature: where aligning its landmark's reference patch moved the observation
+  /// (pixels; bundle adjustment uses uv + offset). Empty or zero: not aligned. Written by
+  /// local mapping under the map lock; not stored in map files.
+  std::vector<Eigen::Vector2f> point_offsets;
+  KeyframeId parent = kNoId;        ///< spanning-tree parent (kNoId for the root)
+  std::set<KeyframeId> loop_edges;  ///< keyframes joined by an accepted loop
 };
 
 /// A 3D point landmark.
@@ -60,6 +64,9 @@ struct PointLandmark {
   std::map<KeyframeId, int> observations;         ///< keyframe -> point feature index
   KeyframeId reference = kNoId;                   ///< keyframe that created it
   int created_at = 0;  ///< number of keyframes in the map when it was created
+  /// Intensities around its observation in `reference` (mapping/point_alignment.h); empty
+  /// when none was taken. Not stored in map files.
+  std::vector<uint8_t> patch;
 };
 
 /// A 3D line-segment landmark (endpoints P, Q).

@@ -77,6 +77,12 @@ struct MappingOptions {
   /// Information of a line residual relative to a point's in local-map tracking, keyframe
   /// refinement and bundle adjustment (same default and reason as tracker.line_weight).
   double line_weight = 8.0;
+  /// Bundle adjustment places each point observation where the landmark's patch from its
+  /// reference keyframe aligns best (translation, zero-mean, mapping/point_alignment.h)
+  /// rather than at the detected corner: a detector does not find the same surface point of
+  /// a corner from every view. Off by default: it helps the low-texture family and the
+  /// corridor but not the street family or the room (docs/BENCHMARKS.md, design decisions).
+  bool align_points = false;
   bool track_local_map = true;  ///< tracking also matches the local map (bounded drift)
   int track_min_inliers = 20;   ///< fewer local-map inliers: keep the frame-to-frame pose
   /// The local-map pose replaces the frame-to-frame one only with at least this many inliers
@@ -112,6 +118,9 @@ struct KeyframeInput {
   StereoFeatures features;
   /// (feature index, landmark) pairs found by tracking against the local map.
   std::vector<std::pair<int, LandmarkId>> point_associations, line_associations;
+  /// Left image (CV_8UC1, owned), for aligning point observations (MappingOptions::
+  /// align_points); may be empty.
+  cv::Mat left_image;
 };
 
 /// Counters and timings of local mapping.
