@@ -118,8 +118,8 @@ struct KeyframeInput {
   StereoFeatures features;
   /// (feature index, landmark) pairs found by tracking against the local map.
   std::vector<std::pair<int, LandmarkId>> point_associations, line_associations;
-  /// Left image (CV_8UC1, owned), for aligning point observations (MappingOptions::
-  /// align_points); may be empty.
+  /// Left image (CV_8UC1, owned) for aligning point observations (align_points); may be
+  /// empty.
   cv::Mat left_image;
 };
 
