@@ -15,7 +15,6 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
-#include <unordered_map>
 #include <vector>
 
 #include "pl_slam/eval/alignment.h"
@@ -26,6 +25,8 @@
 #include "pl_slam/system/slam_system.h"
 #include "pl_slam/util/cli.h"
 #include "pl_slam/util/error.h"
+
+#include "../mapping/mapping_steps.h"
 
 namespace {
 
@@ -43,71 +44,24 @@ constexpr char kUsage[] =
     "  --simulate WHAT   observations replaced by simulated ones: both (default), points\n"
     "                    (lines stay real) or lines (points stay real)\n";
 
-// The map as one bundle adjustment problem, built as local mapping builds its windows
-// (BuildBaWindowLocked): landmarks seen at least twice, stereo residuals except for points
-// beyond stereo_max_depth_baselines, pyramid-level weights, the line weight. Point
+// The whole map as one bundle adjustment problem, built by local mapping's own window
+// builder: every keyframe free but the oldest (the gauge), poses in map order. Point
 // observations are the detected positions: map files do not keep mapping.align_points'
 // offsets.
-pl_slam::BaProblem BuildProblem(const pl_slam::MapContents& m, const pl_slam::StereoCamera& cam,
+pl_slam::BaProblem BuildProblem(pl_slam::Map* map, const pl_slam::StereoCamera& cam,
                                 const pl_slam::SystemOptions& so) {
-  pl_slam::BaProblem p;
-  std::unordered_map<pl_slam::KeyframeId, int> index;
-  for (const auto& [id, kf] : m.keyframes) {
-    index[id] = static_cast<int>(p.poses.size());
-    pl_slam::BaPose pose;
-    pose.T_w_c = kf->T_w_c;
-    p.poses.push_back(pose);
-  }
-  if (!p.poses.empty()) p.poses[0].fixed = true;
-  const double scale = so.tracker.points.scale_factor;
-  const double min_disparity = so.mapping.stereo_max_depth_baselines > 0.0
-                                   ? cam.fx / so.mapping.stereo_max_depth_baselines
-                                   : 0.0;
-  for (const auto& [id, lm] : m.points) {
-    if (lm->observations.size() < 2) continue;
-    const int n = static_cast<int>(p.points.size());
-    p.points.push_back(lm->p_w);
-    for (const auto& [k, i] : lm->observations) {
-      const auto it = index.find(k);
-      if (it == index.end()) continue;
-      const pl_slam::PointFeature& f = m.keyframes.at(k)->features.points[i];
-      pl_slam::BaPointObservation o;
-      o.pose = it->second;
-      o.point = n;
-      o.uv = f.uv;
-      o.stereo = so.mapping.stereo_residuals && f.has_depth &&
-                 cam.TrueDisparity(f.disparity) >= min_disparity;
-      o.u_right = f.uv.x() - f.disparity;
-      o.sqrt_info = std::pow(scale, -f.octave);
-      p.point_obs.push_back(o);
-    }
-  }
-  const double line_info = std::sqrt(so.mapping.line_weight);
-  for (const auto& [id, lm] : m.lines) {
-    if (lm->observations.size() < 2) continue;
-    const int n = static_cast<int>(p.line_P.size());
-    p.line_P.push_back(lm->P_w);
-    p.line_Q.push_back(lm->Q_w);
-    for (const auto& [k, i] : lm->observations) {
-      const auto it = index.find(k);
-      if (it == index.end()) continue;
-      const pl_slam::LineFeature& f = m.keyframes.at(k)->features.lines[i];
-      pl_slam::BaLineObservation o;
-      o.pose = it->second;
-      o.line = n;
-      o.s = f.s;
-      o.e = f.e;
-      o.stereo = so.mapping.stereo_residuals && f.has_depth;
-      if (o.stereo) {
-        o.s_right = cam.ProjectRight(f.P_c);
-        o.e_right = cam.ProjectRight(f.Q_c);
-        if (o.s_right == o.e_right) o.stereo = false;
-      }
-      o.sqrt_info = line_info * std::pow(scale, -f.octave);
-      p.line_obs.push_back(o);
-    }
-  }
-  return p;
+  pl_slam::mapping::Context ctx;
+  ctx.camera = cam;
+  ctx.options = so.mapping;
+  ctx.front_end.scale_factor = so.tracker.points.scale_factor;
+  ctx.map = map;
+  auto lock = map->Lock();
+  std::vector<pl_slam::KeyframeId> all;
+  for (const auto& [id, kf] : map->KeyframesLocked()) all.push_back(id);
+  pl_slam::mapping::BaWindow window;
+  if (!pl_slam::mapping::BuildBaWindowLocked(ctx, all, 0, &window))
+    throw pl_slam::InputError("the map has under 2 keyframes");
+  return window.problem;
 }
 
 // Keyframe ATE (RMSE after SE3 alignment), millimetres.
@@ -263,7 +217,7 @@ int Run(int argc, char** argv) {
   pl_slam::BundleAdjustmentOptions ba = so.mapping.ba;
   ba.max_iterations = iterations;
 
-  pl_slam::BaProblem base = BuildProblem(m, cam, so);
+  pl_slam::BaProblem base = BuildProblem(&map, cam, so);
   std::printf("map: %zu keyframes, %zu points (%zu observations), %zu lines (%zu observations)\n",
               base.poses.size(), base.points.size(), base.point_obs.size(), base.line_P.size(),
               base.line_obs.size());

@@ -199,7 +199,7 @@ bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u
   const double* q1 = sums->sqsum.ptr<double>(v0 + kHalf + 1) + c0 - kHalf;
   int best = -1;
   double best_z = -2.0;
-  std::vector<double> z(n);
+  double z[kMaxRange];
   for (int c = 0; c < n; ++c) {
     const double sr = static_cast<double>(s1[c + kN] - s1[c] - s0[c + kN] + s0[c]);
     const double srr = q1[c + kN] - q1[c] - q0[c + kN] + q0[c];

@@ -8,6 +8,7 @@
 #include "pl_slam/features/point_features.h"
 #include "pl_slam/matching/point_matching.h"
 #include "pl_slam/sim/synthetic_sequence.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
@@ -161,13 +162,7 @@ TEST(PointMatching, RowSearchFindsCornersTheRightDetectorMissed) {
 // A patch that repeats along the row (stripes) or has no texture matches several columns, or
 // none, equally well: the row search gives no depth rather than a guess.
 TEST(PointMatching, RowSearchRefusesRepeatedAndFlatPatches) {
-  StereoCamera cam;
-  cam.fx = cam.fy = 450.0;
-  cam.cx = 375.5;
-  cam.cy = 239.5;
-  cam.baseline = 0.11;
-  cam.width = 752;
-  cam.height = 480;
+  const StereoCamera cam = testing_util::EurocSizedCamera();
   cv::Mat stripes(480, 752, CV_8UC1), flat(480, 752, CV_8UC1, cv::Scalar(128));
   for (int c = 0; c < stripes.cols; ++c)
     stripes.col(c).setTo(cv::Scalar(128 + 60 * std::sin(2.0 * M_PI * c / 12.0)));
