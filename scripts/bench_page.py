@@ -171,6 +171,21 @@ DESIGN_DECISIONS = [
      "tuning); margin 0.1 with ZNCC 0.95, 304 tuning frames, textured 7 of 12. In a poor "
      "image it costs about 1 ms (textured corner s1, stereo stage 0.5 -> 1.7 ms when "
      "searching every image)."),
+    ("Copies of one corner are not its rivals (`tracker.point_matching.same_corner_radius`)",
+     "A sharp corner looks alike at every scale, so where corners are few (a light switch on "
+     "a bare wall) each is detected two to four times, at several pyramid levels or at "
+     "neighbouring pixels. Counted as rivals in the stereo and frame-to-frame ratio tests, "
+     "those copies refused nearly every match of the corner (a bare-wall frame: 3 of 49 "
+     "keypoints with depth, 1 frame-to-frame match; 7 and 5 with the copies within 4 px not "
+     "counted). Low-texture family, points + lines: lost frames 555 -> 508 (bare walls 102 / "
+     "93 / 116 -> 91 / 94 / 91, held-out bare office s2 46 -> 35), median ATE tuning textured "
+     "4.2 -> 4.8 mm, tuning bare 4.5 -> 4.7 mm, held-out textured 7.3 -> 5.4 mm, held-out bare "
+     "5.7 -> 5.6 mm; points only 665 -> 577 lost frames. Accuracy sequences (slam, points + "
+     "lines): room 1.45 -> 1.30 mm, corridor 1.84 -> 1.17 mm, fast_turn 2.03 -> 2.30 mm "
+     "(2.16 mm with 2.5 px), EuRoC 3.50 -> 3.48 mm, KITTI 0.505 -> 0.502 m. Tried and not "
+     "kept: dropping detections within 3 px of a stronger one before bucketing (lost frames "
+     "508 -> 635: the copies also carried inliers), and keeping one frame-to-frame match per "
+     "corner (room 1.30 -> 1.67 mm)."),
     ("Local bundle adjustment over 10 keyframes (`mapping.window`)",
      "On forward motion more optimisation moves the optimum along the travel: a window of 5 "
      "helps KITTI with its offset (1.65 -> 1.45 % drift over 10 m) and costs the corridor "

@@ -27,6 +27,8 @@ std::string PointMatchingOptions::Validate() const {
     os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
   else if (!(search_radius > 0.0 && search_radius <= 1000.0))
     os << "search_radius=" << search_radius << " must be in (0, 1000]";
+  else if (!(same_corner_radius >= 0.0 && same_corner_radius <= 20.0))
+    os << "same_corner_radius=" << same_corner_radius << " must be in [0, 20]";
   else if (row_search_below < 0)
     os << "row_search_below=" << row_search_below << " must be >= 0";
   else if (!(row_search_min_zncc >= 0.0 && row_search_min_zncc <= 1.0))
@@ -225,29 +227,40 @@ bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u
 namespace {
 
 /// Best and second-best distances of one query over its candidates (for the ratio test),
-/// and each candidate's own best query (for the mutual-best check).
+/// and each candidate's own best query (for the mutual-best check). The ratio test asks
+/// whether another place looks as alike as the best: a candidate within `same_place` pixels
+/// of the best one is the same corner detected again (at another pyramid level, or at a
+/// neighbouring pixel) and is no rival. A sharp corner looks alike at every scale, so in an
+/// image with few corners each one is found two to four times, and counting those copies as
+/// rivals refused every match of it.
 struct CandidateSearch {
-  int best = INT_MAX, second = INT_MAX, best_index = -1;
+  int best = INT_MAX, best_index = -1;
+  std::vector<std::pair<int, int>> offered;  // (candidate, distance)
 
   /// Offers candidate j at Hamming distance `dist` to query i.
   void Offer(int i, int j, int dist, std::vector<int>* best_dist_of_candidate,
              std::vector<int>* best_query_of_candidate) {
     if (dist < best) {
-      second = best;
       best = dist;
       best_index = j;
-    } else if (dist < second) {
-      second = dist;
     }
+    offered.emplace_back(j, dist);
     if (dist < (*best_dist_of_candidate)[j]) {
       (*best_dist_of_candidate)[j] = dist;
       (*best_query_of_candidate)[j] = i;
     }
   }
 
-  /// True when the best candidate is close enough and clearly better than the second.
-  bool Passes(int max_distance, double ratio) const {
-    return best_index >= 0 && best <= max_distance && (second == INT_MAX || best < ratio * second);
+  /// True when the best candidate is close enough and clearly better than the best rival:
+  /// the best of the candidates farther than `same_place` pixels from it (`uv(j)`).
+  template <typename Position>
+  bool Passes(int max_distance, double ratio, double same_place, const Position& uv) const {
+    if (best_index < 0 || best > max_distance) return false;
+    const Eigen::Vector2d at = uv(best_index);
+    int second = INT_MAX;
+    for (const auto& [j, dist] : offered)
+      if (j != best_index && dist < second && (uv(j) - at).norm() > same_place) second = dist;
+    return second == INT_MAX || best < ratio * second;
   }
 };
 
@@ -293,7 +306,9 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
                      &best_left_of_right);
       }
     }
-    if (!search.Passes(options.max_distance, options.stereo_ratio)) continue;
+    if (!search.Passes(options.max_distance, options.stereo_ratio, options.same_corner_radius,
+                       [&](int j) { return Eigen::Vector2d(right_kp[j].pt.x, right_kp[j].pt.y); }))
+      continue;
     match_of_left[i] = search.best_index;
   }
   const bool images = !left_image.empty() && !right_image.empty() && left_image.type() == CV_8UC1 &&
@@ -387,7 +402,9 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
     } else {
       for (int j = 0; j < static_cast<int>(cur.size()); ++j) consider(j);
     }
-    if (!search.Passes(options.max_distance, options.f2f_ratio)) continue;
+    if (!search.Passes(options.max_distance, options.f2f_ratio, options.same_corner_radius,
+                       [&](int j) { return cur[j].uv; }))
+      continue;
     match_of_prev[i] = search.best_index;
   }
   for (int i = 0; i < static_cast<int>(prev.size()); ++i) {

@@ -77,6 +77,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.point_matching.row_search_margin", &pm.row_search_margin,
         "row search: ZNCC by which the best column beats every other more than 2 px away");
   t.Add("tracker.point_matching.f2f_ratio", &pm.f2f_ratio, "frame-to-frame ratio test");
+  t.Add("tracker.point_matching.same_corner_radius", &pm.same_corner_radius,
+        "ratio tests: candidates this close to the best (px) are the same corner detected again, "
+        "not rivals (0 = all are rivals)");
   t.Add("tracker.point_matching.search_radius", &pm.search_radius,
         "guided frame-to-frame search radius, px");
 

@@ -4,6 +4,7 @@
 #include <iostream>
 
 #include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
 
 #include "pl_slam/features/point_features.h"
 #include "pl_slam/matching/point_matching.h"
@@ -181,6 +182,73 @@ TEST(PointMatching, RowSearchRefusesRepeatedAndFlatPatches) {
   EXPECT_EQ(
       MatchStereoPoints(cam, flat, flat, kl, desc, {}, cv::Mat(), PointMatchingOptions(), &points),
       0);
+}
+
+// A plain wall with a few light-switch plates: each sharp corner looks alike at every pyramid
+// level, so the detector finds it two to four times. Those copies are the same place, not
+// rivals: with them counted as rivals the ratio tests refuse most corners (stereo and frame to
+// frame); with same_corner_radius they match, at the right disparity and the right shift.
+cv::Mat PlatesOnAWall(int shift_u, int shift_v) {
+  cv::Mat img(480, 752, CV_8UC1, cv::Scalar(150));
+  for (int k = 0; k < 4; ++k) {  // no two on the same rows, no two of the same size
+    const int u = 200 + 120 * k + shift_u, v = 40 + 105 * k + shift_v;
+    cv::rectangle(img, cv::Rect(u, v, 44 + 8 * k, 70 + 6 * k), cv::Scalar(200), cv::FILLED);
+    cv::rectangle(img, cv::Rect(u + 16 + 2 * k, v + 24, 12 + 2 * k, 22), cv::Scalar(90),
+                  cv::FILLED);
+  }
+  cv::Mat noise(img.size(), CV_16SC1);
+  cv::RNG(7 + shift_u).fill(noise, cv::RNG::NORMAL, 0, 2);
+  cv::Mat out;
+  img.convertTo(out, CV_16SC1);
+  out += noise;
+  out.convertTo(out, CV_8UC1);
+  cv::GaussianBlur(out, out, cv::Size(0, 0), 0.6);
+  return out;
+}
+
+TEST(PointMatching, CopiesOfOneCornerAreNotItsRivals) {
+  const StereoCamera cam = testing_util::EurocSizedCamera();
+  constexpr int kDisparity = 30, kDu = 6, kDv = 4;
+  const cv::Mat left = PlatesOnAWall(0, 0), right = PlatesOnAWall(-kDisparity, 0);
+  const cv::Mat next = PlatesOnAWall(kDu, kDv), next_right = PlatesOnAWall(kDu - kDisparity, kDv);
+  PointDetector det{PointDetectorOptions()};
+  std::vector<cv::KeyPoint> kl, kr, kn, knr;
+  cv::Mat dl, dr, dn, dnr;
+  det.Detect(left, &kl, &dl);
+  det.Detect(right, &kr, &dr);
+  det.Detect(next, &kn, &dn);
+  det.Detect(next_right, &knr, &dnr);
+  // Correct and wrong matches without (0) and with (1) same_corner_radius.
+  int stereo[2] = {0, 0}, stereo_wrong[2] = {0, 0}, f2f[2] = {0, 0}, f2f_wrong[2] = {0, 0};
+  for (int on = 0; on < 2; ++on) {
+    PointMatchingOptions mo;
+    mo.row_search_min_zncc = 0.0;  // descriptor matches only
+    mo.same_corner_radius = on ? 4.0 : 0.0;
+    PointFeatures a, b;
+    MatchStereoPoints(cam, left, right, kl, dl, kr, dr, mo, &a);
+    MatchStereoPoints(cam, next, next_right, kn, dn, knr, dnr, mo, &b);
+    for (const PointFeature& p : a) {
+      if (!p.has_depth) continue;
+      const bool right_disparity = std::abs(cam.TrueDisparity(p.disparity) - kDisparity) < 1.0;
+      ++(right_disparity ? stereo : stereo_wrong)[on];
+    }
+    const SE3 still;  // the prediction: no motion, the shift is within the search radius
+    for (const auto& [i, j] : MatchPointsFrameToFrame(cam, a, dl, b, dn, mo, &still)) {
+      const bool right_shift = (b[j].uv - a[i].uv - Eigen::Vector2d(kDu, kDv)).norm() < 1.5;
+      ++(right_shift ? f2f : f2f_wrong)[on];
+    }
+  }
+  std::cout << "correct (wrong) stereo matches " << stereo[0] << " (" << stereo_wrong[0] << ") -> "
+            << stereo[1] << " (" << stereo_wrong[1] << "), frame to frame " << f2f[0] << " ("
+            << f2f_wrong[0] << ") -> " << f2f[1] << " (" << f2f_wrong[1] << ") of " << kl.size()
+            << " keypoints" << std::endl;
+  // More correct matches, and no larger share of wrong ones (corners of one plate a few pixels
+  // apart are real rivals: those stay).
+  EXPECT_GE(stereo[1], stereo[0] + 8);
+  EXPECT_LE(stereo_wrong[1] * (stereo[0] + stereo_wrong[0]),
+            stereo_wrong[0] * (stereo[1] + stereo_wrong[1]));
+  EXPECT_GE(f2f[1], f2f[0] + 6);
+  EXPECT_LE(f2f_wrong[1] * (f2f[0] + f2f_wrong[0]), f2f_wrong[0] * (f2f[1] + f2f_wrong[1]));
 }
 
 TEST(PointMatching, FrameToFrameMatchesAreConsistentWithTheTruePose) {

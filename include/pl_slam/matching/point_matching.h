@@ -33,7 +33,11 @@ struct PointMatchingOptions {
   double row_search_min_zncc = 0.9;  ///< see row_search_below; 0 = no row search
   double row_search_margin = 0.2;    ///< see row_search_below
   double f2f_ratio = 0.8;            ///< frame to frame: best < ratio * second best
-  double search_radius = 30.0;       ///< frame to frame with a prediction: radius, pixels
+  /// Ratio tests (stereo and frame to frame): a candidate within this many pixels of the best
+  /// one is the same corner detected again (another pyramid level, a neighbouring pixel) and
+  /// is not counted as its rival; 0 = every other candidate is a rival.
+  double same_corner_radius = 4.0;
+  double search_radius = 30.0;  ///< frame to frame with a prediction: radius, pixels
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
   std::string Validate() const;
