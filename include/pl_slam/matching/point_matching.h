@@ -35,8 +35,9 @@ struct PointMatchingOptions {
   double f2f_ratio = 0.8;            ///< frame to frame: best < ratio * second best
   /// Ratio tests (stereo and frame to frame): a candidate within this many pixels of the best
   /// one is the same corner detected again (another pyramid level, a neighbouring pixel) and
-  /// is not counted as its rival; 0 = every other candidate is a rival.
-  double same_corner_radius = 4.0;
+  /// is not counted as its rival; 0 = every other candidate is a rival. Off by default: see
+  /// docs/BENCHMARKS.md, design decisions.
+  double same_corner_radius = 0.0;
   double search_radius = 30.0;  ///< frame to frame with a prediction: radius, pixels
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
