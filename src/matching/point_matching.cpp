@@ -231,8 +231,8 @@ namespace {
 /// whether another place looks as alike as the best: a candidate within `same_place` pixels
 /// of the best one is the same corner detected again (at another pyramid level, or at a
 /// neighbouring pixel) and is no rival. A sharp corner looks alike at every scale, so in an
-/// image with few corners each one is found two to four times, and counting those copies as
-/// rivals refused every match of it.
+/// image with few corners each one is often found two to four times, and counting those copies
+/// as rivals can refuse every match of it (same_corner_radius; 0 counts them).
 struct CandidateSearch {
   int best = INT_MAX, best_index = -1;
   std::vector<std::pair<int, int>> offered;  // (candidate, distance)

@@ -186,8 +186,8 @@ TEST(PointMatching, RowSearchRefusesRepeatedAndFlatPatches) {
 
 // A plain wall with a few light-switch plates: each sharp corner looks alike at every pyramid
 // level, so the detector finds it two to four times. Those copies are the same place, not
-// rivals: with them counted as rivals the ratio tests refuse most corners (stereo and frame to
-// frame); with same_corner_radius they match, at the right disparity and the right shift.
+// rivals: counted as rivals they make the ratio tests refuse many corners (stereo and frame to
+// frame); with same_corner_radius those match too, at the right disparity and shift.
 cv::Mat PlatesOnAWall(int shift_u, int shift_v) {
   cv::Mat img(480, 752, CV_8UC1, cv::Scalar(150));
   for (int k = 0; k < 4; ++k) {  // no two on the same rows, no two of the same size
