@@ -234,17 +234,25 @@ namespace {
 /// image with few corners each one is often found two to four times, and counting those copies
 /// as rivals can refuse every match of it (same_corner_radius; 0 counts them).
 struct CandidateSearch {
-  int best = INT_MAX, best_index = -1;
-  std::vector<std::pair<int, int>> offered;  // (candidate, distance)
+  int best = INT_MAX, second = INT_MAX, best_index = -1;
+  /// (candidate, distance) of every offer: kept only when copies are told apart (`same_place`
+  /// > 0), since then the rival is known only once the best is.
+  std::vector<std::pair<int, int>> offered;
+  const bool keep_offers;
+
+  explicit CandidateSearch(double same_place) : keep_offers(same_place > 0.0) {}
 
   /// Offers candidate j at Hamming distance `dist` to query i.
   void Offer(int i, int j, int dist, std::vector<int>* best_dist_of_candidate,
              std::vector<int>* best_query_of_candidate) {
     if (dist < best) {
+      second = best;
       best = dist;
       best_index = j;
+    } else if (dist < second) {
+      second = dist;
     }
-    offered.emplace_back(j, dist);
+    if (keep_offers) offered.emplace_back(j, dist);
     if (dist < (*best_dist_of_candidate)[j]) {
       (*best_dist_of_candidate)[j] = dist;
       (*best_query_of_candidate)[j] = i;
@@ -252,15 +260,19 @@ struct CandidateSearch {
   }
 
   /// True when the best candidate is close enough and clearly better than the best rival:
-  /// the best of the candidates farther than `same_place` pixels from it (`uv(j)`).
+  /// the second best, or with `same_place` > 0 (as constructed) the best of the candidates
+  /// farther than `same_place` pixels from it (`uv(j)`).
   template <typename Position>
   bool Passes(int max_distance, double ratio, double same_place, const Position& uv) const {
     if (best_index < 0 || best > max_distance) return false;
-    const Eigen::Vector2d at = uv(best_index);
-    int second = INT_MAX;
-    for (const auto& [j, dist] : offered)
-      if (j != best_index && dist < second && (uv(j) - at).norm() > same_place) second = dist;
-    return second == INT_MAX || best < ratio * second;
+    int rival = second;
+    if (keep_offers) {
+      const Eigen::Vector2d at = uv(best_index);
+      rival = INT_MAX;
+      for (const auto& [j, dist] : offered)
+        if (j != best_index && dist < rival && (uv(j) - at).norm() > same_place) rival = dist;
+    }
+    return rival == INT_MAX || best < ratio * rival;
   }
 };
 
@@ -295,7 +307,7 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
     const int r0 = std::max(0, static_cast<int>(std::floor(kl.pt.y - tol)));
     const int r1 = std::min(rows - 1, static_cast<int>(std::ceil(kl.pt.y + tol)));
     const uint8_t* dl = left_desc.ptr<uint8_t>(i);
-    CandidateSearch search;
+    CandidateSearch search(options.same_corner_radius);
     for (int r = r0; r <= r1; ++r) {
       for (int j : by_row[r]) {
         const cv::KeyPoint& kr = right_kp[j];
@@ -381,7 +393,7 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
   for (int i = 0; i < static_cast<int>(prev.size()); ++i) {
     if (!prev[i].has_depth) continue;
     const uint8_t* dp = prev_desc.ptr<uint8_t>(i);
-    CandidateSearch search;
+    CandidateSearch search(options.same_corner_radius);
     auto consider = [&](int j) {
       if (std::abs(prev[i].octave - cur[j].octave) > 2) return;
       search.Offer(i, j, HammingDistance32(dp, cur_desc.ptr<uint8_t>(j)), &best_dist_of_cur,
