@@ -45,6 +45,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.lost_rotation_min_inliers", &tr.lost_rotation_min_inliers,
         "while the pose follows the motion model, its rotation comes from the frame's matches "
         "with at least this many inliers (0 = the model's)");
+  t.Add("tracker.lost_partial_motion", &tr.lost_partial_motion,
+        "while lost, the frame's matches still give the directions of its motion they fix "
+        "better than the motion model");
 
   PointDetectorOptions& p = tr.points;
   t.Add("tracker.points.max_points", &p.max_points, "ORB keypoints kept per image");
@@ -162,6 +165,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "fewer inliers after the second step: failure");
   t.Add("tracker.motion.rank_tolerance", &m.rank_tolerance,
         "smallest normalised Hessian eigenvalue (observability)");
+  t.Add("tracker.motion.stereo_residual", &m.stereo_residual,
+        "points with a current stereo match are also fitted in the right image");
   t.Add("tracker.motion.min_sigma_px", &m.min_sigma_px,
         "floor on the residual sigma scaling the covariance, px");
 

@@ -111,6 +111,26 @@ inline bool PointResidual(const Problem& p, const SE3& T, std::size_t i, Eigen::
   if (m.depth_noise > 0.0) WhitenAlong(DepthShift(p.cam, T, m.P_prev, m.depth_noise), r, J);
   return true;
 }
+// Right-image column residual of point i at T (stereo_residual) and its Jacobian row; false
+// when the point has no right-image observation or the option is off.
+inline bool RightResidual(const Problem& p, const SE3& T, std::size_t i, double* r, Vector6d* J) {
+  const PointMatch3D2D& m = p.points[i];
+  if (!p.opt.stereo_residual || !std::isfinite(m.u_right_cur)) return false;
+  const Eigen::Vector3d X = T * m.P_prev;
+  if (!(X.z() > p.opt.min_depth)) return false;
+  const double iz = 1.0 / X.z();
+  const double xr = X.x() - p.cam.baseline;
+  *r = p.cam.fx * xr * iz + p.cam.cx + p.cam.doffs - m.u_right_cur;
+  if (J != nullptr) {
+    // d u_r / dX = a; a left perturbation moves X by rho + phi x X, and a . (phi x X) = phi .
+    // (X x a).
+    const Eigen::Vector3d a(p.cam.fx * iz, 0.0, -p.cam.fx * xr * iz * iz);
+    J->head<3>() = a;
+    J->tail<3>() = X.cross(a);
+  }
+  return true;
+}
+
 inline bool LineResidual(const Problem& p, const SE3& T, std::size_t i, Eigen::Vector2d* r,
                          Matrix26d* J) {
   const LineMatch3D2D& m = p.lines[i];
@@ -157,13 +177,31 @@ void Accumulate(const Problem& p, const SE3& T, bool jacobians, Normal* n) {
     }
   };
   Matrix26d* Jp = jacobians ? &J : nullptr;
+  double rr = 0.0;
+  Vector6d Jr;
   int skipped = 0;
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     if (!p.point_active[i]) continue;
-    if (PointResidual(p, T, i, &r, Jp)) {
-      add(p.points[i].weight);
-    } else {
+    if (!PointResidual(p, T, i, &r, Jp)) {
       ++skipped;
+    } else if (RightResidual(p, T, i, &rr, jacobians ? &Jr : nullptr)) {
+      // The third residual shares the point's robust weight: one observation, one loss.
+      const double w = p.points[i].weight;
+      const double s = w * (r.squaredNorm() + rr * rr);
+      const double rho_prime = PseudoHuberWeight(s, delta);
+      n->cost += PseudoHuberLoss(s, delta);
+      n->sq += s;
+      n->psi_sq += rho_prime * rho_prime * s;
+      n->sum_weight += 1.5 * rho_prime;
+      n->sum_curvature += 0.5 * (2.0 * rho_prime + rho_prime * rho_prime * rho_prime);
+      n->residuals += 3;
+      if (jacobians) {
+        const double f = rho_prime * w;
+        n->H.noalias() += f * (J.transpose() * J + Jr * Jr.transpose());
+        n->g.noalias() += f * (J.transpose() * r + Jr * rr);
+      }
+    } else {
+      add(p.points[i].weight);
     }
   }
   for (std::size_t i = 0; i < p.lines.size(); ++i) {
@@ -263,9 +301,13 @@ void SelectInliers(Problem* p, const SE3& T, std::vector<double>* scratch) {
   scratch->assign(np + nl, -1.0);
   std::vector<double>& s = *scratch;
   Eigen::Vector2d r;
+  double rr = 0.0;
   for (std::size_t i = 0; i < np; ++i) {
     if (p->point_active[i] && PointResidual(*p, T, i, &r, nullptr)) {
       s[i] = p->points[i].weight * r.squaredNorm();
+      // Three dof scaled to the mean of two.
+      if (RightResidual(*p, T, i, &rr, nullptr))
+        s[i] = (s[i] + p->points[i].weight * rr * rr) * (2.0 / 3.0);
     }
   }
   for (std::size_t i = 0; i < nl; ++i) {

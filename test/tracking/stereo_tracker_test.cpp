@@ -291,7 +291,9 @@ TEST(StereoTrackerTest, AfterALossAFewFeatureEstimateIsKeptOnceTheNextFrameConfi
 // room on a blank image, 4-20 matches; every third frame of the walk, so the camera turns three
 // times as far per frame as the motion model says): the frames are lost, yet their matches give the
 // rotation about the predicted position, so the heading at the end of the gap is that of the
-// camera, not the model's extrapolation (lost_rotation_min_inliers 0).
+// camera, not the model's extrapolation (lost_rotation_min_inliers 0 and lost_partial_motion
+// off). With both on, each lost frame's matches give its rotation, or the part of its motion
+// they fix (lost_partial_motion).
 TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   sim::SequenceOptions so;
   so.scene = sim::SceneKind::kRoom;
@@ -308,9 +310,10 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
     double heading_error_deg = -1.0;
     int lost = 0, measured = 0;
   };
-  auto run = [&](int lost_rotation_min_inliers) {
+  auto run = [&](int lost_rotation_min_inliers, bool partial_motion) {
     TrackerOptions options;
     options.lost_rotation_min_inliers = lost_rotation_min_inliers;
+    options.lost_partial_motion = partial_motion;
     // As above: no row search through windows cut at the same pixels in both images.
     options.point_matching.row_search_min_zncc = 0.0;
     StereoTracker tracker(seq.camera(), options);
@@ -324,14 +327,14 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
       EXPECT_TRUE(r.T_w_c.IsFinite());
       if (k < gap_start) continue;
       out.lost += !r.pose_valid;
-      out.measured += r.rotation_measured;
+      out.measured += r.rotation_measured || r.measured_directions > 0;
       const SE3 truth = T_w0.inverse() * seq.ground_truth()[i].T_w_c;
       out.heading_error_deg = (truth.inverse() * r.T_w_c).RotationAngle() * 180.0 / M_PI;
     }
     return out;
   };
-  const Run with = run(TrackerOptions().lost_rotation_min_inliers);
-  const Run without = run(0);
+  const Run with = run(TrackerOptions().lost_rotation_min_inliers, true);
+  const Run without = run(0, false);
   std::cout << "rotation error at the end of the gap: " << with.heading_error_deg
             << " deg with the frames' rotation, " << without.heading_error_deg
             << " deg with the model's\n";
@@ -342,6 +345,57 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   // per frame), which it partly absorbs: better, not exact.
   EXPECT_LT(with.heading_error_deg, 0.6 * without.heading_error_deg);
 }
+// The same sped-up walk seen through two soft windows: the frames are lost, yet the part of
+// their motion their matches fix better than the motion model (lost_partial_motion), refitted
+// with their own disparities, carries the pose further along the walk than the model's
+// extrapolation with the measured rotation alone.
+TEST(StereoTrackerTest, WhileLostThePartOfTheMotionTheMatchesFixIsKept) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kRoom;
+  const sim::SyntheticSequence seq(so);
+  const int w = seq.camera().width, h = seq.camera().height;
+  const SoftWindows windows(w, h, {{200, 180}, {520, 300}}, 36.0);
+  std::vector<int> walk;
+  for (int i = 0; i < 20; ++i) walk.push_back(i);
+  const int gap_start = static_cast<int>(walk.size());
+  for (int i = 22; i <= 40; i += 3) walk.push_back(i);
+  const int gap_end = static_cast<int>(walk.size());
+  struct Run {
+    double error = -1.0;  // position error at the end of the gap, m
+    int lost = 0, partial = 0;
+  };
+  auto run = [&](bool partial_motion) {
+    TrackerOptions options;
+    options.lost_partial_motion = partial_motion;
+    options.point_matching.row_search_min_zncc = 0.0;  // as above
+    StereoTracker tracker(seq.camera(), options);
+    const SE3 T_w0 = seq.ground_truth()[0].T_w_c;
+    Run out;
+    for (int k = 0; k < gap_end; ++k) {
+      const int i = walk[k];
+      StereoFrame frame = seq.Render(i);
+      if (k >= gap_start) windows.Apply(&frame);
+      const TrackerResult r = tracker.Track(frame);
+      EXPECT_TRUE(r.T_w_c.IsFinite());
+      if (k < gap_start) continue;
+      out.lost += !r.pose_valid;
+      out.partial += r.measured_directions > 0;
+      const SE3 truth = T_w0.inverse() * seq.ground_truth()[i].T_w_c;
+      out.error = (truth.translation() - r.T_w_c.translation()).norm();
+    }
+    return out;
+  };
+  const Run with = run(true);
+  const Run without = run(false);
+  std::cout << "position error at the end of the gap: " << with.error * 1000 << " mm with "
+            << with.partial << " frames' partial motion, " << without.error * 1000
+            << " mm with the model's\n";
+  EXPECT_GE(with.lost, 5) << "the windowed views should be lost";
+  EXPECT_GE(with.partial, 3);
+  EXPECT_EQ(without.partial, 0);
+  EXPECT_LT(with.error, 0.6 * without.error);
+}
+
 // The end of the dim corner walk (facing a door: a few faint edges, 1-2 point matches per
 // frame): features alone lose most frames there; direct alignment of the images keeps every
 // one, and the pose ends closer to the truth than the motion model takes it.

@@ -15,6 +15,7 @@
 #pragma once
 
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -44,6 +45,9 @@ struct PointMatch3D2D {
   /// shifts most, weigh less; at zero motion it changes nothing. Must be finite and >= 0 (else
   /// the match is ignored).
   double depth_noise = 0.0;
+  /// The point's column in the current right image (stereo), NaN when it has none. Used with
+  /// MotionEstimatorOptions::stereo_residual.
+  double u_right_cur = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// A previous-frame 3D segment (endpoints P, Q) observed as a current-frame infinite line.
@@ -96,6 +100,11 @@ struct MotionEstimatorOptions {
   /// the orientation about it is fitted (3 unknowns; the covariance's translation block is
   /// zero). For frames too poor for a full estimate, whose position a motion model gives.
   bool rotation_only = false;
+  /// Points with a current right-image column (PointMatch3D2D::u_right_cur) are also fitted
+  /// there, as a third residual (ORB-SLAM2's stereo reprojection): the current frame's
+  /// disparity fixes the distance along the view, which a few features far apart in depth do
+  /// not. The outlier test divides such a point's squared residual by 3/2 (3 dof against 2).
+  bool stereo_residual = false;
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;

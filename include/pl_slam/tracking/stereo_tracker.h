@@ -75,6 +75,13 @@ struct TrackerOptions {
   /// rotation). A turn does not keep the rate the model extrapolates, and the heading error
   /// of a gap is what the rest of the trajectory carries.
   int lost_rotation_min_inliers = 4;
+  /// While lost, the frame's own matches still give the part of its motion they fix better
+  /// than the motion model: refitted with the frame's disparities, kept along the directions
+  /// of their covariance tighter than the model's standard deviations, the model along the
+  /// rest (a plate on a wall fixes the approach but trades sideways motion for yaw). Applies
+  /// after max_predicted_frames too, against no motion. The frame is still reported lost
+  /// (predicted, TrackerResult::measured_directions).
+  bool lost_partial_motion = true;
   PointDetectorOptions points;          ///< "points.*"
   PointMatchingOptions point_matching;  ///< "point_matching.*"
   LineDetectorOptions lines;            ///< "lines.*"
@@ -112,6 +119,9 @@ struct TrackerResult {
   /// Predicted, with the rotation measured from the frame's own matches about the predicted
   /// position (TrackerOptions::lost_rotation_min_inliers).
   bool rotation_measured = false;
+  /// Predicted, with this many directions of the motion measured from the frame's own
+  /// matches (TrackerOptions::lost_partial_motion); 0 when none.
+  int measured_directions = 0;
   /// The pose comes from direct alignment of the image to the last frame with a pose
   /// (TrackDirect): features were too few, the image's edges were enough.
   bool direct_aligned = false;
