@@ -94,9 +94,9 @@ LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures&
   for (const auto& [i, j] : matches.points) {
     PointMatch3D2D m;
     m.P_prev = local.points[i].p_c;
-    m.uv_cur = features.points[j].uv;
-    m.weight = std::pow(front_end.scale_factor, -2.0 * features.points[j].octave);
     const PointFeature& f = features.points[j];
+    m.uv_cur = f.uv;
+    m.weight = std::pow(front_end.scale_factor, -2.0 * f.octave);
     if (f.has_depth) m.u_right_cur = f.uv.x() - f.disparity;
     pm.push_back(m);
   }

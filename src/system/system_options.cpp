@@ -43,11 +43,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.max_predicted_frames", &tr.max_predicted_frames,
         "while lost the pose follows the motion model for this many frames (0 = off)");
   t.Add("tracker.lost_rotation_min_inliers", &tr.lost_rotation_min_inliers,
-        "while the pose follows the motion model, its rotation comes from the frame's matches "
-        "with at least this many inliers (0 = the model's)");
-  t.Add("tracker.lost_partial_motion", &tr.lost_partial_motion,
-        "while lost, the frame's matches still give the directions of its motion they fix "
-        "better than the motion model");
+        "while lost, the rotation comes from the frame's matches with at least this many "
+        "inliers, within relaxed_max_deviation_deg of the model's (0 = the model's)");
 
   PointDetectorOptions& p = tr.points;
   t.Add("tracker.points.max_points", &p.max_points, "ORB keypoints kept per image");

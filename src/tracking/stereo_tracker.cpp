@@ -261,58 +261,6 @@ struct StereoTracker::Impl {
     return true;
   }
 
-  /// The motion of a frame too poor for a whole estimate, along the directions its matches
-  /// fix better than the motion model does (options.lost_partial_motion). The frame's matches
-  /// are refitted with its own disparities (they fix the distance to a wall that a few
-  /// features on it leave open); the fit's deviation from `model` (T_cur_prev) is kept along
-  /// the eigenvectors of its covariance, in units of the model's standard deviations
-  /// `model_sigma` (translation m, rotation rad), whose variance is at most one, and the
-  /// model along the rest (a plate on a wall trades sideways motion for yaw). The eigenvectors
-  /// of the scaled covariance are those of the scaled information too, so dropping some
-  /// leaves the others' optimum unchanged. Writes T_cur_prev and T_prev_cur's covariance and
-  /// returns the number of directions kept: 0 when the fit is not usable (fewer than
-  /// RelaxedFloor() inliers, no consensus, or a kept change beyond kMaxModelSigmas of the
-  /// model's standard deviations).
-  static constexpr double kMaxModelSigmas = 3.0;
-  int MeasuredPart(const Estimation& f2f, const SE3& model, const Eigen::Vector2d& model_sigma,
-                   SE3* T_cur_prev, Matrix6d* cov_prev_cur) const {
-    if (!options.lost_partial_motion || !f2f.est.success ||
-        (options.consensus.enabled && !f2f.consensus_agreed))
-      return 0;
-    MotionEstimatorOptions stereo = options.motion;
-    stereo.stereo_residual = true;
-    const MotionEstimate est =
-        EstimateMotion(camera, f2f.points, f2f.lines, f2f.est.T_cur_prev, stereo);
-    if (!est.success || est.point_inliers + est.line_inliers < RelaxedFloor()) return 0;
-    Vector6d to_unit;
-    to_unit << Eigen::Vector3d::Constant(1.0 / model_sigma(0)),
-        Eigen::Vector3d::Constant(1.0 / model_sigma(1));
-    const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(to_unit.asDiagonal() * est.covariance *
-                                                      to_unit.asDiagonal());
-    if (eig.info() != Eigen::Success) return 0;
-    const Vector6d deviation = to_unit.cwiseProduct((est.T_cur_prev * model.inverse()).Log());
-    Vector6d kept = Vector6d::Zero();
-    Vector6d variance = Vector6d::Ones();  // the model's, along the directions not kept
-    int directions = 0;
-    for (int i = 0; i < 6; ++i) {
-      if (!(eig.eigenvalues()(i) <= 1.0)) continue;
-      const Vector6d v = eig.eigenvectors().col(i);
-      kept += v * v.dot(deviation);
-      variance(i) = eig.eigenvalues()(i);
-      ++directions;
-    }
-    if (directions == 0) return 0;
-    if (!(kept.norm() <= kMaxModelSigmas)) return 0;
-    const Vector6d step = kept.cwiseQuotient(to_unit);
-    *T_cur_prev = SE3::Exp(step) * model;
-    const Matrix6d from_unit = to_unit.cwiseInverse().asDiagonal();
-    const Matrix6d cov = from_unit * eig.eigenvectors() * variance.asDiagonal() *
-                         eig.eigenvectors().transpose() * from_unit;
-    const Matrix6d Ad = T_cur_prev->inverse().Adjoint();
-    *cov_prev_cur = Ad * cov * Ad.transpose();
-    return directions;
-  }
-
   /// The last Track() call's frame, at T_w, becomes direct alignment's reference.
   void KeepForDirect(const SE3& T_w) {
     if (!options.direct.enabled || last_left.empty()) return;
@@ -616,46 +564,32 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       result.T_prev_cur = T_prev_cur;
       result.covariance_prev_cur = f2f.est.covariance_prev_cur;
     } else {
-      // The model: the constant velocity for max_predicted_frames, then no motion. Its
-      // uncertainty: the last increment's size as its standard deviation (at least 1 cm and
-      // 0.5 deg; the camera may still be moving as fast), so a consumer never over-trusts a
-      // prediction.
+      // The model: the constant velocity for max_predicted_frames, then no motion.
       const bool model_valid =
           s.velocity_valid && s.predicted_frames < s.options.max_predicted_frames;
       SE3 T_prev_cur = model_valid ? s.velocity_cur_prev.inverse() : SE3();
-      const Eigen::Vector2d sigma(
-          std::max(0.01, s.velocity_cur_prev.translation().norm()),
-          std::max(0.5 * M_PI / 180.0, s.velocity_cur_prev.RotationAngle()));
-      Matrix6d cov = Matrix6d::Zero();
-      cov.diagonal() << Eigen::Vector3d::Constant(sigma(0) * sigma(0)),
-          Eigen::Vector3d::Constant(sigma(1) * sigma(1));
-      // The matches, too few for the whole motion, may still fix part of it: the directions
-      // the frame pins down better than the model, else the rotation about the model's
-      // position (only when the frame they were matched to is the last one: no featureless
-      // frame came between).
-      const bool matched_last = s.has_previous && s.frames_since_previous == 1;
+      // The matches, too few for the whole motion, may still hold the rotation: the position
+      // follows the model, the orientation what the frame sees (only when the frame it was
+      // matched to is the last one: no featureless frame came between). Past the model's
+      // frames too, so a turn while lost is followed.
       SE3 T_cur_prev;
-      Matrix6d measured_cov;
-      int directions = 0;
-      bool rotation = false;
-      if (matched_last) {
-        directions = s.MeasuredPart(f2f, T_prev_cur.inverse(), sigma, &T_cur_prev, &measured_cov);
-        rotation = directions == 0 && s.RotationAbout(f2f, T_prev_cur.inverse(), &T_cur_prev);
-      }
-      if (directions > 0) {
-        T_prev_cur = T_cur_prev.inverse();
-        cov = measured_cov;
-        result.measured_directions = directions;
-      } else if (rotation) {
+      const bool rotation = s.has_previous && s.frames_since_previous == 1 &&
+                            s.RotationAbout(f2f, T_prev_cur.inverse(), &T_cur_prev);
+      if (rotation) {
         T_prev_cur = T_cur_prev.inverse();
         result.rotation_measured = true;
       }
-      const bool moved = model_valid || directions > 0 || rotation;
-      if (moved) {
+      if (model_valid || rotation) {
         s.T_w_c = s.T_w_c * T_prev_cur;
         result.predicted = true;
         result.T_prev_cur = T_prev_cur;
-        result.covariance_prev_cur = cov;
+        // The motion model's uncertainty: the increment's own size as its standard deviation
+        // (at least 1 cm and 0.5 deg), so a consumer never over-trusts a prediction.
+        const double st = std::max(0.01, T_prev_cur.translation().norm());
+        const double sr = std::max(0.5 * M_PI / 180.0, T_prev_cur.RotationAngle());
+        result.covariance_prev_cur.setZero();
+        result.covariance_prev_cur.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr,
+            sr * sr;
       }
       if (model_valid) {
         ++s.predicted_frames;

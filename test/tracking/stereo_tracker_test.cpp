@@ -287,86 +287,61 @@ TEST(StereoTrackerTest, AfterALossAFewFeatureEstimateIsKeptOnceTheNextFrameConfi
   if (without.first_kept_frame >= 0) EXPECT_LT(with.first_kept_frame, without.first_kept_frame);
 }
 
-// A walk that speeds up while the view holds only a few features: frames 0-19 of the room
-// walk, then every third frame from 22 to 40 (the camera moves and turns three times as far per
-// frame as the motion model says) seen through two soft windows onto the room on a blank image
-// (4-20 matches). Tracked with `options`; the errors are those at the end of the gap.
-struct SpedUpGap {
-  double heading_error_deg = -1.0;
-  double position_error = -1.0;             // m
-  int lost = 0, rotation = 0, partial = 0;  // frames lost, with the rotation, partial motion
-};
-SpedUpGap TrackSpedUpGap(TrackerOptions options) {
+// A turn that speeds up while the view holds only a few features (two soft windows onto the
+// room on a blank image, 4-20 matches; every third frame of the walk, so the camera turns three
+// times as far per frame as the motion model says): the frames are lost, yet their matches give the
+// rotation about the predicted position, so the heading at the end of the gap is that of the
+// camera, not the model's extrapolation (lost_rotation_min_inliers 0).
+TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   sim::SequenceOptions so;
   so.scene = sim::SceneKind::kRoom;
   const sim::SyntheticSequence seq(so);
-  const SoftWindows windows(seq.camera().width, seq.camera().height, {{200, 180}, {520, 300}},
-                            36.0);
+  const int w = seq.camera().width, h = seq.camera().height;
+  const SoftWindows windows(w, h, {{200, 180}, {520, 300}}, 36.0);
+  // Frames 0-19 of the walk, then every third frame from 22 to 40 seen through the windows.
   std::vector<int> walk;
   for (int i = 0; i < 20; ++i) walk.push_back(i);
   const int gap_start = static_cast<int>(walk.size());
   for (int i = 22; i <= 40; i += 3) walk.push_back(i);
-  // As above: no row search through windows cut at the same pixels in both images.
-  options.point_matching.row_search_min_zncc = 0.0;
-  StereoTracker tracker(seq.camera(), options);
-  const SE3 T_w0 = seq.ground_truth()[0].T_w_c;
-  SpedUpGap out;
-  for (int k = 0; k < static_cast<int>(walk.size()); ++k) {
-    const int i = walk[k];
-    StereoFrame frame = seq.Render(i);
-    if (k >= gap_start) windows.Apply(&frame);
-    const TrackerResult r = tracker.Track(frame);
-    EXPECT_TRUE(r.T_w_c.IsFinite());
-    if (k < gap_start) continue;
-    out.lost += !r.pose_valid;
-    out.rotation += r.rotation_measured;
-    out.partial += r.measured_directions > 0;
-    const SE3 truth = T_w0.inverse() * seq.ground_truth()[i].T_w_c;
-    out.heading_error_deg = (truth.inverse() * r.T_w_c).RotationAngle() * 180.0 / M_PI;
-    out.position_error = (truth.translation() - r.T_w_c.translation()).norm();
-  }
-  return out;
-}
-
-// The turn of the sped-up gap: the frames are lost, yet their matches give the rotation about
-// the predicted position (or the part of the motion they fix, lost_partial_motion), so the
-// heading at the end of the gap is that of the camera, not the model's extrapolation
-// (lost_rotation_min_inliers 0, lost_partial_motion off).
-TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
-  TrackerOptions model_only;
-  model_only.lost_rotation_min_inliers = 0;
-  model_only.lost_partial_motion = false;
-  const SpedUpGap with = TrackSpedUpGap(TrackerOptions());
-  const SpedUpGap without = TrackSpedUpGap(model_only);
+  const int gap_end = static_cast<int>(walk.size());
+  struct Run {
+    double heading_error_deg = -1.0;
+    int lost = 0, measured = 0;
+  };
+  auto run = [&](int lost_rotation_min_inliers) {
+    TrackerOptions options;
+    options.lost_rotation_min_inliers = lost_rotation_min_inliers;
+    // As above: no row search through windows cut at the same pixels in both images.
+    options.point_matching.row_search_min_zncc = 0.0;
+    StereoTracker tracker(seq.camera(), options);
+    const SE3 T_w0 = seq.ground_truth()[0].T_w_c;
+    Run out;
+    for (int k = 0; k < gap_end; ++k) {
+      const int i = walk[k];
+      StereoFrame frame = seq.Render(i);
+      if (k >= gap_start) windows.Apply(&frame);
+      const TrackerResult r = tracker.Track(frame);
+      EXPECT_TRUE(r.T_w_c.IsFinite());
+      if (k < gap_start) continue;
+      out.lost += !r.pose_valid;
+      out.measured += r.rotation_measured;
+      const SE3 truth = T_w0.inverse() * seq.ground_truth()[i].T_w_c;
+      out.heading_error_deg = (truth.inverse() * r.T_w_c).RotationAngle() * 180.0 / M_PI;
+    }
+    return out;
+  };
+  const Run with = run(TrackerOptions().lost_rotation_min_inliers);
+  const Run without = run(0);
   std::cout << "rotation error at the end of the gap: " << with.heading_error_deg
             << " deg with the frames' rotation, " << without.heading_error_deg
             << " deg with the model's\n";
   EXPECT_GE(with.lost, 5) << "the windowed views should be lost";
-  EXPECT_GE(with.rotation + with.partial, 4);
-  EXPECT_EQ(without.rotation + without.partial, 0);
+  EXPECT_GE(with.measured, 4);
+  EXPECT_EQ(without.measured, 0);
   // The rotation is fitted about a centre the model places too short (by two frames' travel
   // per frame), which it partly absorbs: better, not exact.
   EXPECT_LT(with.heading_error_deg, 0.6 * without.heading_error_deg);
 }
-
-// The walk of the sped-up gap: the part of each lost frame's motion its matches fix better
-// than the motion model (lost_partial_motion), refitted with the frame's own disparities,
-// carries the pose further along the walk than the model's extrapolation with the measured
-// rotation alone.
-TEST(StereoTrackerTest, WhileLostThePartOfTheMotionTheMatchesFixIsKept) {
-  TrackerOptions rotation_only;
-  rotation_only.lost_partial_motion = false;
-  const SpedUpGap with = TrackSpedUpGap(TrackerOptions());
-  const SpedUpGap without = TrackSpedUpGap(rotation_only);
-  std::cout << "position error at the end of the gap: " << with.position_error * 1000 << " mm with "
-            << with.partial << " frames' partial motion, " << without.position_error * 1000
-            << " mm with the model's\n";
-  EXPECT_GE(with.lost, 5) << "the windowed views should be lost";
-  EXPECT_GE(with.partial, 3);
-  EXPECT_EQ(without.partial, 0);
-  EXPECT_LT(with.position_error, 0.6 * without.position_error);
-}
-
 // The end of the dim corner walk (facing a door: a few faint edges, 1-2 point matches per
 // frame): features alone lose most frames there; direct alignment of the images keeps every
 // one, and the pose ends closer to the truth than the motion model takes it.

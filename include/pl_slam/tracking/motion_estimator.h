@@ -102,8 +102,9 @@ struct MotionEstimatorOptions {
   bool rotation_only = false;
   /// Points with a current right-image column (PointMatch3D2D::u_right_cur) are also fitted
   /// there, as a third residual (ORB-SLAM2's stereo reprojection): the current frame's
-  /// disparity fixes the distance along the view, which a few features far apart in depth do
-  /// not. The outlier test divides such a point's squared residual by 3/2 (3 dof against 2).
+  /// disparity measures the distance along the view, which the left image measures only
+  /// through the features' spread. The outlier test divides such a point's squared residual
+  /// by 3/2 (3 dof against 2).
   bool stereo_residual = false;
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.

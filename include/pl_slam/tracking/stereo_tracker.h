@@ -70,18 +70,12 @@ struct TrackerOptions {
   /// rescue against the local map, starts where the camera is likely to be rather than where
   /// it was last seen. 0: stay at the last good pose.
   int max_predicted_frames = 10;
-  /// While the pose follows the motion model, the frame's matches still give its rotation
-  /// about the predicted position when at least this many agree on one (0: the model's
-  /// rotation). A turn does not keep the rate the model extrapolates, and the heading error
-  /// of a gap is what the rest of the trajectory carries.
+  /// While lost, the frame's matches still give its rotation about the predicted position
+  /// (the last one once max_predicted_frames are over) when at least this many agree on one
+  /// within relaxed_max_deviation_deg of the model's (0: the model's rotation). A turn does
+  /// not keep the rate the model extrapolates, and the heading error of a gap is what the
+  /// rest of the trajectory carries.
   int lost_rotation_min_inliers = 4;
-  /// While lost, the frame's own matches still give the part of its motion they fix better
-  /// than the motion model: refitted with the frame's disparities, kept along the directions
-  /// of their covariance tighter than the model's standard deviations, the model along the
-  /// rest (a plate on a wall fixes the approach but trades sideways motion for yaw). Applies
-  /// after max_predicted_frames too, against no motion. The frame is still reported lost
-  /// (predicted, TrackerResult::measured_directions).
-  bool lost_partial_motion = true;
   PointDetectorOptions points;          ///< "points.*"
   PointMatchingOptions point_matching;  ///< "point_matching.*"
   LineDetectorOptions lines;            ///< "lines.*"
@@ -119,9 +113,6 @@ struct TrackerResult {
   /// Predicted, with the rotation measured from the frame's own matches about the predicted
   /// position (TrackerOptions::lost_rotation_min_inliers).
   bool rotation_measured = false;
-  /// Predicted, with this many directions of the motion measured from the frame's own
-  /// matches (TrackerOptions::lost_partial_motion); 0 when none.
-  int measured_directions = 0;
   /// The pose comes from direct alignment of the image to the last frame with a pose
   /// (TrackDirect): features were too few, the image's edges were enough.
   bool direct_aligned = false;
