@@ -107,8 +107,9 @@ struct TrackerResult {
   int point_matches = 0, line_matches = 0;      ///< frame-to-frame
   int point_inliers = 0, line_inliers = 0;      ///< kept by motion estimation
   bool keyframe_refined = false;                ///< the pose comes from matching the last keyframe
-  /// Lost, and T_w_c is the constant-velocity prediction (covariance_prev_cur is then the
-  /// motion model's: the last increment's size as its standard deviation).
+  /// Lost, and T_w_c is the constant-velocity prediction, or the last pose turned by the
+  /// frame's own rotation once the model's frames are over (covariance_prev_cur is then the
+  /// motion model's: the increment's size as its standard deviation).
   bool predicted = false;
   /// Predicted, with the rotation measured from the frame's own matches about the predicted
   /// position (TrackerOptions::lost_rotation_min_inliers).
