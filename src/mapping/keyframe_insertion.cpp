@@ -130,7 +130,7 @@ void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Key
     m.uv_cur = cf.points[j].uv;
     const double s = PointSqrtInfo(ctx, cf.points[j].octave);
     m.weight = s * s;
-    if (cf.points[j].has_depth) m.u_right_cur = cf.points[j].uv.x() - cf.points[j].disparity;
+    m.u_right_cur = cf.points[j].u_right();
     pm.push_back(m);
     pm_used.emplace_back(i, j);
   }

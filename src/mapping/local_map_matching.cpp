@@ -97,7 +97,7 @@ LocalMapTracking TrackLocalMap(const StereoCamera& camera, const StereoFeatures&
     const PointFeature& f = features.points[j];
     m.uv_cur = f.uv;
     m.weight = std::pow(front_end.scale_factor, -2.0 * f.octave);
-    if (f.has_depth) m.u_right_cur = f.uv.x() - f.disparity;
+    m.u_right_cur = f.u_right();
     pm.push_back(m);
   }
   for (const auto& [i, j] : matches.lines) {

@@ -238,9 +238,11 @@ struct CandidateSearch {
   /// (candidate, distance) of every offer: kept only when copies are told apart (`same_place`
   /// > 0), since then the rival is known only once the best is.
   std::vector<std::pair<int, int>> offered;
+  const double same_place;
   const bool keep_offers;
 
-  explicit CandidateSearch(double same_place) : keep_offers(same_place > 0.0) {}
+  explicit CandidateSearch(double same_place_px)
+      : same_place(same_place_px), keep_offers(same_place_px > 0.0) {}
 
   /// Offers candidate j at Hamming distance `dist` to query i.
   void Offer(int i, int j, int dist, std::vector<int>* best_dist_of_candidate,
@@ -260,10 +262,10 @@ struct CandidateSearch {
   }
 
   /// True when the best candidate is close enough and clearly better than the best rival:
-  /// the second best, or with `same_place` > 0 (as constructed) the best of the candidates
-  /// farther than `same_place` pixels from it (`uv(j)`).
+  /// the second best, or with `same_place` > 0 the best of the candidates farther than
+  /// `same_place` pixels from it (`uv(j)`).
   template <typename Position>
-  bool Passes(int max_distance, double ratio, double same_place, const Position& uv) const {
+  bool Passes(int max_distance, double ratio, const Position& uv) const {
     if (best_index < 0 || best > max_distance) return false;
     int rival = second;
     if (keep_offers) {
@@ -318,7 +320,7 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
                      &best_left_of_right);
       }
     }
-    if (!search.Passes(options.max_distance, options.stereo_ratio, options.same_corner_radius,
+    if (!search.Passes(options.max_distance, options.stereo_ratio,
                        [&](int j) { return Eigen::Vector2d(right_kp[j].pt.x, right_kp[j].pt.y); }))
       continue;
     match_of_left[i] = search.best_index;
@@ -414,8 +416,7 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
     } else {
       for (int j = 0; j < static_cast<int>(cur.size()); ++j) consider(j);
     }
-    if (!search.Passes(options.max_distance, options.f2f_ratio, options.same_corner_radius,
-                       [&](int j) { return cur[j].uv; }))
+    if (!search.Passes(options.max_distance, options.f2f_ratio, [&](int j) { return cur[j].uv; }))
       continue;
     match_of_prev[i] = search.best_index;
   }

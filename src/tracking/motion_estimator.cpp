@@ -160,54 +160,45 @@ void Accumulate(const Problem& p, const SE3& T, bool jacobians, Normal* n) {
   const double delta = p.opt.huber_delta_px;
   Eigen::Vector2d r;
   Matrix26d J;
-  auto add = [&](double w) {
-    const double s = w * r.squaredNorm();
+  double rr = 0.0;  // right-image residual (stereo_residual), with its Jacobian row Jr
+  Vector6d Jr;
+  // One observation under one robust loss: r, and rr too when `right` (3 scalar residuals).
+  auto add = [&](double w, bool right) {
+    const int dims = right ? 3 : 2;
+    const double s = w * (right ? r.squaredNorm() + rr * rr : r.squaredNorm());
     const double rho_prime = PseudoHuberWeight(s, delta);
     n->cost += PseudoHuberLoss(s, delta);
     n->sq += s;
     n->psi_sq += rho_prime * rho_prime * s;
-    n->sum_weight += rho_prime;
+    // Per pair of scalar residuals (Normal's unit).
+    n->sum_weight += 0.5 * dims * rho_prime;
     // Curvature of rho(|r|^2) per unit residual: rho' across the residual, rho'^3 along it.
-    n->sum_curvature += 0.5 * (rho_prime + rho_prime * rho_prime * rho_prime);
-    n->residuals += 2;
+    n->sum_curvature += 0.5 * ((dims - 1) * rho_prime + rho_prime * rho_prime * rho_prime);
+    n->residuals += dims;
     if (jacobians) {
       const double f = rho_prime * w;
       n->H.noalias() += f * J.transpose() * J;
       n->g.noalias() += f * J.transpose() * r;
+      if (right) {
+        n->H.noalias() += f * Jr * Jr.transpose();
+        n->g.noalias() += f * Jr * rr;
+      }
     }
   };
   Matrix26d* Jp = jacobians ? &J : nullptr;
-  double rr = 0.0;
-  Vector6d Jr;
   int skipped = 0;
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     if (!p.point_active[i]) continue;
-    if (!PointResidual(p, T, i, &r, Jp)) {
-      ++skipped;
-    } else if (RightResidual(p, T, i, &rr, jacobians ? &Jr : nullptr)) {
-      // The third residual shares the point's robust weight: one observation, one loss.
-      const double w = p.points[i].weight;
-      const double s = w * (r.squaredNorm() + rr * rr);
-      const double rho_prime = PseudoHuberWeight(s, delta);
-      n->cost += PseudoHuberLoss(s, delta);
-      n->sq += s;
-      n->psi_sq += rho_prime * rho_prime * s;
-      n->sum_weight += 1.5 * rho_prime;
-      n->sum_curvature += 0.5 * (2.0 * rho_prime + rho_prime * rho_prime * rho_prime);
-      n->residuals += 3;
-      if (jacobians) {
-        const double f = rho_prime * w;
-        n->H.noalias() += f * (J.transpose() * J + Jr * Jr.transpose());
-        n->g.noalias() += f * (J.transpose() * r + Jr * rr);
-      }
+    if (PointResidual(p, T, i, &r, Jp)) {
+      add(p.points[i].weight, RightResidual(p, T, i, &rr, jacobians ? &Jr : nullptr));
     } else {
-      add(p.points[i].weight);
+      ++skipped;
     }
   }
   for (std::size_t i = 0; i < p.lines.size(); ++i) {
     if (!p.line_active[i]) continue;
     if (LineResidual(p, T, i, &r, Jp)) {
-      add(p.lines[i].weight);
+      add(p.lines[i].weight, false);
     } else {
       ++skipped;
     }

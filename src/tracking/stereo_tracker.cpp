@@ -194,7 +194,7 @@ struct StereoTracker::Impl {
       // Keypoints of coarser pyramid levels are localised less precisely.
       m.weight = std::pow(options.points.scale_factor, -2.0 * cur.points[j].octave);
       m.depth_noise = options.depth_noise;
-      if (cur.points[j].has_depth) m.u_right_cur = cur.points[j].uv.x() - cur.points[j].disparity;
+      m.u_right_cur = cur.points[j].u_right();
       pm.push_back(m);
       points_cur.push_back(cur.points[j].has_depth ? cur.points[j].p_c : kUnknown);
     }

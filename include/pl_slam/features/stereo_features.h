@@ -2,6 +2,7 @@
 // their stereo-triangulated 3D positions in the left camera frame when a stereo match exists.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include <Eigen/Core>
@@ -18,6 +19,11 @@ struct PointFeature {
   bool has_depth = false;                         ///< stereo match found and triangulated
   double disparity = 0.0;                         ///< u_left - u_right when has_depth
   Eigen::Vector3d p_c = Eigen::Vector3d::Zero();  ///< 3D point, left camera frame (has_depth)
+
+  /// Column of the stereo match in the right image; NaN without one.
+  double u_right() const {
+    return has_depth ? uv.x() - disparity : std::numeric_limits<double>::quiet_NaN();
+  }
 };
 
 /// A line segment of the left image.
