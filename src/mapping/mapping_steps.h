@@ -80,7 +80,9 @@ bool BuildBaWindowLocked(const Context& ctx, const std::vector<KeyframeId>& free
 /// re-anchored to an observation) and removes the outlier observations.
 void ApplyBaWindowLocked(const Context& ctx, const BaWindow& window, const BaSummary& summary);
 
-/// Local bundle adjustment around keyframe `id`; outlier observations are removed.
+/// Local bundle adjustment around keyframe `id`; outlier observations are removed. Observations
+/// of `id` farther from their landmark's projection than the local-map search reaches (beyond
+/// its median residual) are left out of the solve and removed too.
 BaSummary LocalBundleAdjustment(const Context& ctx, KeyframeId id);
 
 /// A global bundle adjustment: the whole map copied at one moment, solved, then merged.
