@@ -32,7 +32,7 @@ struct Scene {
 
 /// Keyframes 0-4 walking towards a wall 2 m ahead, 5 cm apart. Keyframes 0-3 see 60 wall
 /// points; the new keyframe 4 sees 8 of them, and a point keyframe 3 put at 0.85 m (a noise
-/// corner's wrong stereo match) 15 px from where keyframe 4 observes it.
+/// corner's wrong stereo match) 17 px from where keyframe 4 observes it.
 void Build(Scene* s) {
   s->ctx.camera = testing_util::EurocSizedCamera();
   s->ctx.map = &s->map;
