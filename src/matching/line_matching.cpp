@@ -277,4 +277,16 @@ std::vector<std::pair<int, int>> MatchLines(const LineFeatures& prev, const cv::
   return MutualMatches(prev_best, cur_best, options.f2f_ratio, options.max_distance);
 }
 
+std::vector<std::pair<int, int>> MatchLinesPredicted(
+    const LineFeatures& prev, const cv::Mat& prev_desc, const LineFeatures& cur,
+    const cv::Mat& cur_desc, const LineMatchingOptions& options, const LinePrediction& prediction,
+    int everywhere_below) {
+  auto matches = MatchLines(prev, prev_desc, cur, cur_desc, options, &prediction);
+  if (static_cast<int>(matches.size()) < everywhere_below) {
+    auto everywhere = MatchLines(prev, prev_desc, cur, cur_desc, options);
+    if (everywhere.size() > matches.size()) matches = std::move(everywhere);
+  }
+  return matches;
+}
+
 }  // namespace pl_slam

@@ -427,4 +427,17 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
   return out;
 }
 
+std::vector<std::pair<int, int>> MatchPointsPredicted(
+    const StereoCamera& camera, const PointFeatures& prev, const cv::Mat& prev_desc,
+    const PointFeatures& cur, const cv::Mat& cur_desc, const PointMatchingOptions& options,
+    const SE3& T_cur_prev, int everywhere_below) {
+  auto matches =
+      MatchPointsFrameToFrame(camera, prev, prev_desc, cur, cur_desc, options, &T_cur_prev);
+  if (static_cast<int>(matches.size()) < everywhere_below) {
+    auto everywhere = MatchPointsFrameToFrame(camera, prev, prev_desc, cur, cur_desc, options);
+    if (everywhere.size() > matches.size()) matches = std::move(everywhere);
+  }
+  return matches;
+}
+
 }  // namespace pl_slam

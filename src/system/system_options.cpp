@@ -20,9 +20,11 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "against the local map while the pose is predicted); without a model (after a loss) "
         "they make one the next frame must agree with (0 = off)");
   t.Add("tracker.relaxed_max_deviation", &tr.relaxed_max_deviation,
-        "relaxed gate: largest deviation from the motion model and its sigma, m");
+        "relaxed gate: largest deviation from the motion model and its sigma; no frame-to-frame "
+        "estimate with a larger sigma is kept, m");
   t.Add("tracker.relaxed_max_deviation_deg", &tr.relaxed_max_deviation_deg,
-        "relaxed gate: largest deviation from the motion model and its sigma, deg");
+        "relaxed gate: largest deviation from the motion model and its sigma; no frame-to-frame "
+        "estimate with a larger sigma is kept, deg");
   t.Add("tracker.max_translation", &tr.max_translation,
         "largest accepted frame-to-frame translation, m");
   t.Add("tracker.max_rotation_deg", &tr.max_rotation_deg,

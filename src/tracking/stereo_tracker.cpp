@@ -156,26 +156,25 @@ struct StereoTracker::Impl {
     Estimation out;
     auto t0 = Clock::now();
     std::vector<std::pair<int, int>> point_matches, line_matches;
+    // Guided by the prediction; where it finds few, also everywhere (the prediction may be
+    // wrong after a sudden change of motion), keeping the search with more matches.
     if (use_points) {
-      point_matches = MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors, cur.points,
-                                              cur.point_descriptors, options.point_matching, prior);
-      if (prior && static_cast<int>(point_matches.size()) < 2 * options.min_inliers) {
-        // The prediction may be wrong (sudden motion change): search everywhere.
-        point_matches =
-            MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors, cur.points,
-                                    cur.point_descriptors, options.point_matching);
-      }
+      point_matches =
+          prior ? MatchPointsPredicted(camera, ref.points, ref.point_descriptors, cur.points,
+                                       cur.point_descriptors, options.point_matching, *prior,
+                                       2 * options.min_inliers)
+                : MatchPointsFrameToFrame(camera, ref.points, ref.point_descriptors, cur.points,
+                                          cur.point_descriptors, options.point_matching);
     }
     if (use_lines) {
       LinePrediction prediction;
       if (prior) prediction.T_cur_prev = *prior;
       prediction.camera = camera;
-      line_matches = MatchLines(ref.lines, ref.line_descriptors, cur.lines, cur.line_descriptors,
-                                options.line_matching, prior ? &prediction : nullptr);
-      if (prior && static_cast<int>(line_matches.size()) < options.min_inliers) {
-        line_matches = MatchLines(ref.lines, ref.line_descriptors, cur.lines, cur.line_descriptors,
-                                  options.line_matching);
-      }
+      line_matches = prior ? MatchLinesPredicted(ref.lines, ref.line_descriptors, cur.lines,
+                                                 cur.line_descriptors, options.line_matching,
+                                                 prediction, options.min_inliers)
+                           : MatchLines(ref.lines, ref.line_descriptors, cur.lines,
+                                        cur.line_descriptors, options.line_matching);
     }
     out.point_matches = static_cast<int>(point_matches.size());
     out.line_matches = static_cast<int>(line_matches.size());
@@ -470,6 +469,11 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       if (!T_prev_cur.IsFinite() || T_prev_cur.translation().norm() > s.options.max_translation ||
           T_prev_cur.RotationAngle() * 180.0 / M_PI > s.options.max_rotation_deg) {
         result.warning = "implausible frame-to-frame motion rejected";
+      } else if (!SigmaWithin(est.covariance_prev_cur, s.options.relaxed_max_deviation,
+                              s.options.relaxed_max_deviation_deg * M_PI / 180.0)) {
+        // Enough inliers, but bunched where they leave the motion unobservable (a corner of
+        // the image): kept, it would become the motion model the next frames follow.
+        result.warning = "frame-to-frame motion too uncertain";
       } else {
         tracked = true;
         result.T_prev_cur = T_prev_cur;

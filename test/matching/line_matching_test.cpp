@@ -315,6 +315,57 @@ TEST(MatchLines, MotionPredictionGatesCandidates) {
   EXPECT_LE(misled_depth, guided_depth / 5);
 }
 
+// Vertical seams on a wall 2 m ahead, four with a descriptor of their own and six in pairs of
+// copies 300 px apart, seen again after the camera moved 8 cm to the right: searched
+// everywhere the copies fail the ratio test, around their predicted place they do not, and
+// that search is kept though it finds fewer matches than asked for (as for points).
+TEST(MatchLines, APredictionThatTellsCopiesApartIsNotReplacedBySearchingEverywhere) {
+  const StereoCamera cam = TestCamera();
+  constexpr double kDepth = 2.0;
+  const SE3 T_cur_prev(Eigen::Matrix3d::Identity(), Eigen::Vector3d(-0.08, 0.0, 0.0));
+  cv::RNG rng(5);
+  cv::Mat desc(10, 32, CV_8UC1);
+  rng.fill(desc, cv::RNG::UNIFORM, 0, 256);
+  for (int k = 4; k < 10; k += 2) desc.row(k).copyTo(desc.row(k + 1));
+  auto back_project = [&](const Eigen::Vector2d& uv) {
+    return Eigen::Vector3d(kDepth * (uv.x() - cam.cx) / cam.fx, kDepth * (uv.y() - cam.cy) / cam.fy,
+                           kDepth);
+  };
+  LineFeatures prev, cur;
+  for (int k = 0; k < 10; ++k) {
+    const double u = k < 4 ? 100.0 + 50.0 * k : 320.0 + 40.0 * ((k - 4) / 2) + 300.0 * (k % 2);
+    LineFeature p = MakeLineFeature({u, 100.0 + 10.0 * k}, {u, 300.0 + 10.0 * k});
+    p.has_depth = true;
+    p.P_c = back_project(p.s);
+    p.Q_c = back_project(p.e);
+    prev.push_back(p);
+    LineFeature c =
+        MakeLineFeature(cam.Project(T_cur_prev * p.P_c), cam.Project(T_cur_prev * p.Q_c));
+    c.has_depth = true;
+    c.P_c = T_cur_prev * p.P_c;
+    c.Q_c = T_cur_prev * p.Q_c;
+    cur.push_back(c);
+  }
+  LinePrediction right, wrong;
+  right.camera = wrong.camera = cam;
+  right.T_cur_prev = T_cur_prev;
+  wrong.T_cur_prev = SE3(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.12, 0.0, 0.0));
+  const LineMatchingOptions mo;
+  const auto correct = [](const std::vector<std::pair<int, int>>& matches) {
+    int n = 0;
+    for (const auto& [i, j] : matches) n += i == j;
+    return n;
+  };
+  ASSERT_EQ(MatchLines(prev, desc, cur, desc, mo).size(), 4u) << "copies should fail";
+  ASSERT_EQ(MatchLines(prev, desc, cur, desc, mo, &right).size(), 10u);
+  const auto kept = MatchLinesPredicted(prev, desc, cur, desc, mo, right, 15);
+  EXPECT_EQ(kept.size(), 10u);
+  EXPECT_EQ(correct(kept), 10);
+  const auto recovered = MatchLinesPredicted(prev, desc, cur, desc, mo, wrong, 15);
+  EXPECT_EQ(recovered.size(), 4u);
+  EXPECT_EQ(correct(recovered), 4);
+}
+
 TEST(LineMatching, EmptyInputsAndBadDescriptors) {
   const StereoCamera cam = TestCamera();
   LineFeatures left = {MakeLineFeature({100, 100}, {110, 200})};

@@ -286,6 +286,56 @@ TEST(PointMatching, UnrelatedImagesGiveFewMatches) {
   EXPECT_LT(matches.size(), 15u);
 }
 
+// Points along a wall 2 m ahead, six with a descriptor of their own and six in pairs of
+// copies 300 px apart (a pattern repeated along the wall), seen again after the camera moved
+// 8 cm to the right. Searched everywhere, each copy has an identical rival and the ratio test
+// refuses it; around its predicted position it has none. A search guided by a right prediction
+// that finds fewer matches than asked for is kept when the search everywhere finds fewer still;
+// after a wrong prediction the search everywhere is kept.
+TEST(PointMatching, APredictionThatTellsCopiesApartIsNotReplacedBySearchingEverywhere) {
+  const StereoCamera camera = testing_util::EurocSizedCamera();
+  constexpr double kDepth = 2.0;
+  const SE3 T_cur_prev(Eigen::Matrix3d::Identity(), Eigen::Vector3d(-0.08, 0.0, 0.0));
+  cv::RNG rng(11);
+  cv::Mat desc(12, 32, CV_8UC1);
+  rng.fill(desc, cv::RNG::UNIFORM, 0, 256);
+  for (int k = 6; k < 12; k += 2) desc.row(k).copyTo(desc.row(k + 1));
+  PointFeatures prev, cur;
+  for (int k = 0; k < 12; ++k) {
+    const bool copy = k >= 6;
+    const double u = copy ? 120.0 + 60.0 * ((k - 6) / 2) + 300.0 * (k % 2) : 100.0 + 90.0 * k;
+    const double v = copy ? 330.0 : 150.0 + 20.0 * (k % 3);
+    PointFeature p;
+    p.uv = {u, v};
+    p.has_depth = true;
+    p.p_c = kDepth * Eigen::Vector3d((u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1);
+    p.disparity = camera.DisparityFromDepth(kDepth);
+    prev.push_back(p);
+    PointFeature c = p;
+    c.uv = camera.Project(T_cur_prev * p.p_c);
+    c.p_c = T_cur_prev * p.p_c;
+    cur.push_back(c);
+  }
+  const PointMatchingOptions mo;
+  const auto correct = [&](const std::vector<std::pair<int, int>>& matches) {
+    int n = 0;
+    for (const auto& [i, j] : matches) n += i == j;
+    return n;
+  };
+  const auto everywhere = MatchPointsFrameToFrame(camera, prev, desc, cur, desc, mo);
+  const auto guided = MatchPointsFrameToFrame(camera, prev, desc, cur, desc, mo, &T_cur_prev);
+  ASSERT_EQ(everywhere.size(), 6u) << "the copies should fail the ratio test";
+  ASSERT_EQ(guided.size(), 12u);
+  const auto kept = MatchPointsPredicted(camera, prev, desc, cur, desc, mo, T_cur_prev, 30);
+  EXPECT_EQ(kept.size(), 12u);
+  EXPECT_EQ(correct(kept), 12);
+  // A prediction 20 cm off (about 45 px at 2 m): nothing within the search radius.
+  const SE3 wrong(Eigen::Matrix3d::Identity(), Eigen::Vector3d(0.12, 0.0, 0.0));
+  const auto recovered = MatchPointsPredicted(camera, prev, desc, cur, desc, mo, wrong, 30);
+  EXPECT_EQ(recovered.size(), 6u);
+  EXPECT_EQ(correct(recovered), 6);
+}
+
 TEST(PointMatching, HammingDistance) {
   uint8_t a[32] = {0}, b[32] = {0};
   EXPECT_EQ(HammingDistance32(a, b), 0);

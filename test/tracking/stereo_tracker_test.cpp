@@ -291,7 +291,8 @@ TEST(StereoTrackerTest, AfterALossAFewFeatureEstimateIsKeptOnceTheNextFrameConfi
 // room on a blank image, 4-20 matches; every third frame of the walk, so the camera turns three
 // times as far per frame as the motion model says): the frames are lost, yet their matches give the
 // rotation about the predicted position, so the heading at the end of the gap is that of the
-// camera, not the model's extrapolation (lost_rotation_min_inliers 0).
+// camera, not the model's extrapolation (lost_rotation_min_inliers 0). Views that reach
+// min_inliers within the two windows are lost too: their estimates are too uncertain to keep.
 TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   sim::SequenceOptions so;
   so.scene = sim::SceneKind::kRoom;
@@ -307,6 +308,7 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   struct Run {
     double heading_error_deg = -1.0;
     int lost = 0, measured = 0;
+    int refused = 0;  // lost with min_inliers or more: too uncertain to keep
   };
   auto run = [&](int lost_rotation_min_inliers) {
     TrackerOptions options;
@@ -325,6 +327,7 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
       if (k < gap_start) continue;
       out.lost += !r.pose_valid;
       out.measured += r.rotation_measured;
+      out.refused += !r.pose_valid && r.point_inliers + r.line_inliers >= options.min_inliers;
       const SE3 truth = T_w0.inverse() * seq.ground_truth()[i].T_w_c;
       out.heading_error_deg = (truth.inverse() * r.T_w_c).RotationAngle() * 180.0 / M_PI;
     }
@@ -336,6 +339,9 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
             << " deg with the frames' rotation, " << without.heading_error_deg
             << " deg with the model's\n";
   EXPECT_GE(with.lost, 5) << "the windowed views should be lost";
+  // Some views give min_inliers, all within the two windows: their estimates' standard
+  // deviations exceed 5 cm, and kept, each would become the motion model of the frames after.
+  EXPECT_GE(with.refused, 1);
   EXPECT_GE(with.measured, 4);
   EXPECT_EQ(without.measured, 0);
   // The rotation is fitted about a centre the model places too short (by two frames' travel

@@ -79,4 +79,11 @@ std::vector<std::pair<int, int>> MatchLines(const LineFeatures& prev, const cv::
                                             const LineMatchingOptions& options,
                                             const LinePrediction* prediction = nullptr);
 
+/// MatchLines with `prediction`; when that gives fewer than `everywhere_below` matches, also
+/// without it, keeping the one with more matches (as MatchPointsPredicted).
+std::vector<std::pair<int, int>> MatchLinesPredicted(
+    const LineFeatures& prev, const cv::Mat& prev_desc, const LineFeatures& cur,
+    const cv::Mat& cur_desc, const LineMatchingOptions& options, const LinePrediction& prediction,
+    int everywhere_below);
+
 }  // namespace pl_slam

@@ -67,4 +67,14 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
     const PointFeatures& cur, const cv::Mat& cur_desc, const PointMatchingOptions& options,
     const SE3* T_cur_prev = nullptr);
 
+/// Frame-to-frame matches guided by the prediction `T_cur_prev`; when they are fewer than
+/// `everywhere_below`, the prediction may be wrong (a sudden change of motion) and every
+/// current point is searched as well: the search with more matches is kept. Where corners
+/// repeat (the same pattern along a wall) the search everywhere refuses them all to the ratio
+/// test, so it must not replace a prediction that told them apart.
+std::vector<std::pair<int, int>> MatchPointsPredicted(
+    const StereoCamera& camera, const PointFeatures& prev, const cv::Mat& prev_desc,
+    const PointFeatures& cur, const cv::Mat& cur_desc, const PointMatchingOptions& options,
+    const SE3& T_cur_prev, int everywhere_below);
+
 }  // namespace pl_slam

@@ -41,8 +41,10 @@ struct TrackerOptions {
   /// agree with (0, or not below min_inliers: no relaxed gate). SlamSystem applies the same
   /// gate to tracking against the local map while the pose follows the motion model.
   int relaxed_min_inliers = 8;
-  double relaxed_max_deviation = 0.05;     ///< relaxed gate: largest deviation, m
-  double relaxed_max_deviation_deg = 3.0;  ///< relaxed gate: largest deviation, deg
+  /// Relaxed gate: largest deviation from the prediction and standard deviation, m. No
+  /// frame-to-frame estimate with a larger standard deviation is kept, whatever its inliers.
+  double relaxed_max_deviation = 0.05;
+  double relaxed_max_deviation_deg = 3.0;  ///< the same in rotation, deg
   double max_translation = 2.0;  ///< larger frame-to-frame motion (m) is rejected as a failure
   double max_rotation_deg = 60;  ///< larger frame-to-frame rotation (deg) is rejected
   /// Information of a line residual relative to a point's (octave 0). A line's distance to
