@@ -311,7 +311,12 @@ struct StereoTracker::Impl {
     if (options.relaxed_min_inliers <= 0 ||
         est.point_inliers + est.line_inliers < options.relaxed_min_inliers)
       return false;
-    return SigmaWithin(est.covariance_prev_cur, options.relaxed_max_deviation,
+    return WithinRelaxedSigma(est.covariance_prev_cur);
+  }
+
+  /// Standard deviations within relaxed_max_deviation(_deg): what any kept estimate needs.
+  bool WithinRelaxedSigma(const Matrix6d& covariance) const {
+    return SigmaWithin(covariance, options.relaxed_max_deviation,
                        options.relaxed_max_deviation_deg * M_PI / 180.0);
   }
 
@@ -469,8 +474,7 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       if (!T_prev_cur.IsFinite() || T_prev_cur.translation().norm() > s.options.max_translation ||
           T_prev_cur.RotationAngle() * 180.0 / M_PI > s.options.max_rotation_deg) {
         result.warning = "implausible frame-to-frame motion rejected";
-      } else if (!SigmaWithin(est.covariance_prev_cur, s.options.relaxed_max_deviation,
-                              s.options.relaxed_max_deviation_deg * M_PI / 180.0)) {
+      } else if (!s.WithinRelaxedSigma(est.covariance_prev_cur)) {
         // Enough inliers, but bunched where they leave the motion unobservable (a corner of
         // the image): kept, it would become the motion model the next frames follow.
         result.warning = "frame-to-frame motion too uncertain";
@@ -655,8 +659,7 @@ bool StereoTracker::TrackDirect(const StereoFrame& frame, TrackerResult* r) {
   const Matrix6d Ad = T_ref_cur.Adjoint();
   const Matrix6d cov_ref_cur = Ad * a.covariance * Ad.transpose();
   if (deviation.translation().norm() > max_m || deviation.RotationAngle() > max_rad ||
-      !SigmaWithin(cov_ref_cur, s.options.relaxed_max_deviation,
-                   s.options.relaxed_max_deviation_deg * M_PI / 180.0)) {
+      !s.WithinRelaxedSigma(cov_ref_cur)) {
     PL_LOG_DEBUG("direct alignment refused: " << deviation.translation().norm() << " m, "
                                               << deviation.RotationAngle() * 180.0 / M_PI
                                               << " deg from the prediction");
