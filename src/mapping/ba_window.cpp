@@ -92,7 +92,7 @@ bool BuildBaWindowLocked(const Context& ctx, const std::vector<KeyframeId>& free
       o.pose = it->second;
       o.point = static_cast<int>(i);
       o.uv = f.uv;
-      // Where the landmark's patch aligned (point_alignment.h); the disparity stays.
+      // Where the landmark's patch aligned (matching/patch_alignment.h); the disparity stays.
       if (index < static_cast<int>(kf->point_offsets.size()))
         o.uv += kf->point_offsets[index].cast<double>();
       o.stereo =

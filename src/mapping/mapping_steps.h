@@ -23,7 +23,7 @@ namespace mapping {
 using LineTracks = std::unordered_map<KeyframeId, std::vector<std::pair<KeyframeId, int>>>;
 
 /// The last inserted keyframe's left image: landmarks made from its features take their
-/// alignment patch from it (mapping/point_alignment.h). Only the mapping thread uses it.
+/// alignment patch from it (matching/patch_alignment.h). Only the mapping thread uses it.
 struct PreviousImage {
   KeyframeId id = kNoId;
   cv::Mat image;

@@ -27,6 +27,8 @@ std::string PointMatchingOptions::Validate() const {
     os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
   else if (!(search_radius > 0.0 && search_radius <= 1000.0))
     os << "search_radius=" << search_radius << " must be in (0, 1000]";
+  else if (!(f2f_align_max_shift >= 0.0 && f2f_align_max_shift <= 10.0))
+    os << "f2f_align_max_shift=" << f2f_align_max_shift << " must be in [0, 10]";
   else if (!(same_corner_radius >= 0.0 && same_corner_radius <= 20.0))
     os << "same_corner_radius=" << same_corner_radius << " must be in [0, 20]";
   else if (row_search_below < 0)

@@ -84,6 +84,10 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "not rivals (0 = all are rivals)");
   t.Add("tracker.point_matching.search_radius", &pm.search_radius,
         "guided frame-to-frame search radius, px");
+  t.Add("tracker.point_matching.f2f_align_max_shift", &pm.f2f_align_max_shift,
+        "frame to frame and keyframe: a match's current position is where the reference "
+        "patch aligns, within this many px of the keypoint, where the predicted motion does "
+        "not warp the patch; 0 = keypoints as detected");
 
   LineDetectorOptions& l = tr.lines;
   t.Add(

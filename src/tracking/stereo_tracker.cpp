@@ -7,6 +7,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "pl_slam/matching/patch_alignment.h"
 #include "pl_slam/util/error.h"
 #include "pl_slam/util/logging.h"
 #include "pl_slam/util/worker_thread.h"
@@ -74,6 +75,11 @@ std::string TrackerOptions::Validate() const {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// Largest warp of an aligned patch between the reference and the current view (PatchWarp),
+// as local mapping's (mapping.align_points).
+constexpr double kMaxAlignWarp = 0.08;
+
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
@@ -107,6 +113,9 @@ struct StereoTracker::Impl {
   // The last keyframe (track_keyframe): its features, in its camera frame, and its pose.
   bool has_keyframe = false;
   StereoFeatures keyframe;
+  // The left images of `previous` and `keyframe` (copies, shared by the two when the previous
+  // frame is the keyframe), for the patch alignment of frame-to-frame point matches.
+  cv::Mat previous_left, keyframe_left;
   SE3 T_w_keyframe;
   SE3 velocity_cur_prev;  // last T_cur_prev: the constant-velocity prior
   bool velocity_valid = false;
@@ -151,7 +160,8 @@ struct StereoTracker::Impl {
   /// Matches the features of a reference frame `ref` (with depth, in its camera frame) to the
   /// current frame, guided by `prior` (T_cur_ref) when given, and estimates T_cur_ref.
   /// `consensus`: run the hypothesis stage first (options.consensus.enabled permitting).
-  Estimation EstimateAgainst(const StereoFeatures& ref, const StereoFeatures& cur, const SE3* prior,
+  Estimation EstimateAgainst(const StereoFeatures& ref, const cv::Mat& ref_left,
+                             const StereoFeatures& cur, const cv::Mat& cur_left, const SE3* prior,
                              bool consensus) const {
     Estimation out;
     auto t0 = Clock::now();
@@ -186,10 +196,21 @@ struct StereoTracker::Impl {
     LineMatches3D2D lm;
     Points3D points_cur, lines_cur_P, lines_cur_Q;  // current-frame stereo 3D, for consensus
     pm.reserve(point_matches.size());
+    // Where the reference patch aligns (f2f_align_max_shift), when the prediction says the
+    // view does not warp it.
+    const double max_shift = options.point_matching.f2f_align_max_shift;
+    const bool align = max_shift > 0.0 && prior && !ref_left.empty() && !cur_left.empty();
     for (const auto& [i, j] : point_matches) {
       PointMatch3D2D m;
       m.P_prev = ref.points[i].p_c;
       m.uv_cur = cur.points[j].uv;
+      if (align &&
+          PatchWarp(camera, *prior, ref.points[i].uv, ref.points[i].p_c.z()) <= kMaxAlignWarp) {
+        Eigen::Vector2d offset;
+        if (AlignPatch(TakePatch(ref_left, ref.points[i].uv), cur_left, m.uv_cur, max_shift,
+                       &offset))
+          m.uv_cur += offset;
+      }
       // Keypoints of coarser pyramid levels are localised less precisely.
       m.weight = std::pow(options.points.scale_factor, -2.0 * cur.points[j].octave);
       m.depth_noise = options.depth_noise;
@@ -347,6 +368,8 @@ void StereoTracker::Reset() {
   s.has_previous = false;
   s.initialized = false;
   s.previous = StereoFeatures();
+  s.previous_left.release();
+  s.keyframe_left.release();
   s.T_w_c = SE3();
   s.T_w_previous = SE3();
   s.frames_since_previous = 0;
@@ -452,7 +475,8 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
   bool candidate_motion = false;
   Impl::Estimation f2f;
   if (s.has_previous)
-    f2f = s.EstimateAgainst(s.previous, cur, s.velocity_valid ? &prior : nullptr, true);
+    f2f = s.EstimateAgainst(s.previous, s.previous_left, cur, frame.left,
+                            s.velocity_valid ? &prior : nullptr, true);
   result.point_matches = f2f.point_matches;
   result.line_matches = f2f.line_matches;
   result.stage_ms.emplace_back("matching", f2f.matching_ms);
@@ -497,7 +521,8 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
       const SE3 predicted = T_w_cur.inverse() * s.T_w_keyframe;  // T_cur_keyframe
       // No consensus stage here: the prediction comes from this frame's own estimate and the
       // refinement is refused beyond keyframe_max_correction anyway.
-      const Impl::Estimation kf = s.EstimateAgainst(s.keyframe, cur, &predicted, false);
+      const Impl::Estimation kf =
+          s.EstimateAgainst(s.keyframe, s.keyframe_left, cur, frame.left, &predicted, false);
       const int kf_inliers = kf.est.point_inliers + kf.est.line_inliers;
       const int f2f_inliers = result.point_inliers + result.line_inliers;
       if (kf.est.success && kf_inliers >= s.options.min_inliers &&
@@ -608,12 +633,20 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     }
   }
   if (s.state != TrackerState::kTracking) s.has_keyframe = false;
+  // The frame's left image, for aligning the next frames' matches (a copy: callers may reuse
+  // their buffers).
+  cv::Mat left_copy;
+  if (s.use_points && s.options.point_matching.f2f_align_max_shift > 0.0 &&
+      (usable > 0 || result.is_keyframe))
+    left_copy = frame.left.clone();
   if (result.is_keyframe && s.options.track_keyframe) {
+    s.keyframe_left = left_copy;
     s.keyframe = cur;
     s.T_w_keyframe = s.T_w_c;
     s.has_keyframe = true;
   }
   if (usable > 0) {
+    s.previous_left = left_copy;
     s.previous = std::move(cur);
     s.has_previous = true;
     s.T_w_previous = s.T_w_c;

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "pl_slam/features/point_features.h"
+#include "pl_slam/matching/patch_alignment.h"
 #include "pl_slam/matching/point_matching.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "test_util/cameras.h"
@@ -334,6 +335,45 @@ TEST(PointMatching, APredictionThatTellsCopiesApartIsNotReplacedBySearchingEvery
   const auto recovered = MatchPointsPredicted(camera, prev, desc, cur, desc, mo, wrong, 30);
   EXPECT_EQ(recovered.size(), 6u);
   EXPECT_EQ(correct(recovered), 6);
+}
+
+// Where a matched corner is in the next frame: the reference patch aligned there lies closer
+// to the true image of the same surface point (ground-truth depth and poses) than the corner
+// the detector finds again, whose position moves with its pixel grid and its own response.
+TEST(PointMatching, AnAlignedPatchFollowsTheSurfaceCloserThanTheDetectedCorner) {
+  const auto seq = Room();
+  const PointMatchingOptions mo;
+  std::vector<double> detected_err, aligned_err;
+  for (int a = 10; a < 200; a += 38) {
+    const int b = a + 1;
+    const Detected pa = DetectAndMatch(seq, a, mo), pb = DetectAndMatch(seq, b, mo);
+    const cv::Mat depth = seq.RenderDepth(a);
+    const cv::Mat ia = seq.Render(a).left, ib = seq.Render(b).left;
+    const SE3 T_b_a = seq.ground_truth()[b].T_w_c.inverse() * seq.ground_truth()[a].T_w_c;
+    for (const auto& [i, j] : MatchPointsFrameToFrame(seq.camera(), pa.points, pa.desc, pb.points,
+                                                      pb.desc, mo, &T_b_a)) {
+      const Eigen::Vector2d& uv = pa.points[i].uv;
+      const float z = depth.at<float>(static_cast<int>(std::lround(uv.y())),
+                                      static_cast<int>(std::lround(uv.x())));
+      if (!(z > 0.f)) continue;
+      const Eigen::Vector3d X((uv.x() - seq.camera().cx) / seq.camera().fx * z,
+                              (uv.y() - seq.camera().cy) / seq.camera().fy * z, z);
+      const Eigen::Vector2d truth = seq.camera().Project(T_b_a * X);
+      Eigen::Vector2d offset;
+      if (!AlignPatch(TakePatch(ia, uv), ib, pb.points[j].uv, 1.5, &offset)) continue;
+      const Eigen::Vector2d aligned = pb.points[j].uv + offset;
+      if ((pb.points[j].uv - truth).norm() > 2.0) continue;  // a wrong match or a depth edge
+      detected_err.push_back((pb.points[j].uv - truth).norm());
+      aligned_err.push_back((aligned - truth).norm());
+    }
+  }
+  ASSERT_GT(detected_err.size(), 500u);
+  std::sort(detected_err.begin(), detected_err.end());
+  std::sort(aligned_err.begin(), aligned_err.end());
+  const double d = detected_err[detected_err.size() / 2], al = aligned_err[aligned_err.size() / 2];
+  std::cout << detected_err.size() << " matches: median distance to the true image " << d
+            << " px detected, " << al << " px aligned\n";
+  EXPECT_LT(al, 0.5 * d);
 }
 
 TEST(PointMatching, HammingDistance) {

@@ -64,7 +64,7 @@ struct PointLandmark {
   std::map<KeyframeId, int> observations;         ///< keyframe -> point feature index
   KeyframeId reference = kNoId;                   ///< keyframe that created it
   int created_at = 0;  ///< number of keyframes in the map when it was created
-  /// Intensities around its observation in `reference` (mapping/point_alignment.h); empty
+  /// Intensities around its observation in `reference` (matching/patch_alignment.h); empty
   /// when none was taken. Not stored in map files.
   std::vector<uint8_t> patch;
 };

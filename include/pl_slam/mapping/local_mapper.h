@@ -78,7 +78,7 @@ struct MappingOptions {
   /// refinement and bundle adjustment (same default and reason as tracker.line_weight).
   double line_weight = 8.0;
   /// Bundle adjustment places each point observation where the landmark's patch from its
-  /// reference keyframe aligns best (translation, zero-mean, mapping/point_alignment.h)
+  /// reference keyframe aligns best (translation, zero-mean, matching/patch_alignment.h)
   /// rather than at the detected corner: a detector does not find the same surface point of
   /// a corner from every view. Off by default: it helps the low-texture family and the
   /// corridor but not the street family or the room (docs/BENCHMARKS.md, design decisions).

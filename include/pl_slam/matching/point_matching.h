@@ -39,6 +39,14 @@ struct PointMatchingOptions {
   /// docs/BENCHMARKS.md, design decisions.
   double same_corner_radius = 0.0;
   double search_radius = 30.0;  ///< frame to frame with a prediction: radius, pixels
+  /// Frame to frame (and against the last keyframe): a matched point's position in the
+  /// current image is where the reference image's 11x11 patch around the reference keypoint
+  /// aligns (matching/patch_alignment.h), not the current keypoint itself, when the alignment
+  /// converges within this many pixels of the keypoint and the predicted motion does not warp
+  /// the patch; 0 = the keypoints as detected. A corner detector's position moves with the
+  /// image content only to within its pixel grid and its own response, the patch follows the
+  /// texture. See docs/BENCHMARKS.md, design decisions.
+  double f2f_align_max_shift = 0.0;
 
   /// Empty when valid, else "key=value must be ..." for the first bad field.
   std::string Validate() const;

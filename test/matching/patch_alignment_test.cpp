@@ -1,4 +1,4 @@
-// Patch alignment of point observations (src/mapping/point_alignment.h): a patch taken in one
+// Patch alignment (pl_slam/matching/patch_alignment.h): a patch taken in one
 // image is found again, to a small fraction of a pixel, in a shifted and noisy copy; flat and
 // unrelated patches are refused.
 #include <algorithm>
@@ -7,10 +7,9 @@
 
 #include <gtest/gtest.h>
 
-#include "../../src/mapping/point_alignment.h"
+#include "pl_slam/matching/patch_alignment.h"
 
 namespace pl_slam {
-namespace mapping {
 namespace {
 
 // A smooth random texture (sum of sinusoids) sampled with the image shifted by (sx, sy):
@@ -40,7 +39,7 @@ cv::Mat Texture(double sx, double sy, double noise, uint64_t seed) {
 
 // Without noise the patch lands within 0.05 px of where it moved; with the renderer's noise
 // (sigma 2 grey levels in both images) within 0.25 px.
-TEST(PointAlignment, FindsAShiftedPatchToAFractionOfAPixel) {
+TEST(PatchAlignment, FindsAShiftedPatchToAFractionOfAPixel) {
   for (const double noise : {0.0, 2.0}) {
     const double tolerance = noise > 0.0 ? 0.25 : 0.05;
     const cv::Mat reference = Texture(0.0, 0.0, noise, 1);
@@ -61,7 +60,7 @@ TEST(PointAlignment, FindsAShiftedPatchToAFractionOfAPixel) {
   }
 }
 
-TEST(PointAlignment, RefusesFlatUnrelatedAndOutOfImagePatches) {
+TEST(PatchAlignment, RefusesFlatUnrelatedAndOutOfImagePatches) {
   const cv::Mat textured = Texture(0.0, 0.0, 2.0, 1);
   const std::vector<uint8_t> patch = TakePatch(textured, Eigen::Vector2d(60.0, 50.0));
   Eigen::Vector2d offset(9.0, 9.0);
@@ -81,5 +80,4 @@ TEST(PointAlignment, RefusesFlatUnrelatedAndOutOfImagePatches) {
 }
 
 }  // namespace
-}  // namespace mapping
 }  // namespace pl_slam
