@@ -1,8 +1,6 @@
 #include "pl_slam/matching/patch_alignment.h"
 
 #include <algorithm>
-#include <cmath>
-#include <limits>
 
 #include <Eigen/Dense>
 
@@ -13,8 +11,6 @@ namespace mapping {
 
 void AlignPointObservations(const Context& ctx, Keyframe* kf, const cv::Mat& image) {
   constexpr double kMaxOffset = 2.5;  // pixels
-  // Largest local warp between the views: 0.08 moves the patch's corners by under 0.6 px.
-  constexpr double kMaxWarp = 0.08;
   Map& map = *ctx.map;
   struct Job {
     int index;
@@ -50,7 +46,7 @@ void AlignPointObservations(const Context& ctx, Keyframe* kf, const cv::Mat& ima
       const double z_ref = (ref->T_w_c.inverse() * p->p_w).z();
       if (!(z_ref > 0.0) || (T_c_w * p->p_w).z() <= 0.0) continue;
       if (PatchWarp(ctx.camera, T_c_w * ref->T_w_c, ref->features.points[ref_obs->second].uv,
-                    z_ref) > kMaxWarp)
+                    z_ref) > kMaxPatchWarp)
         continue;
       jobs.push_back({static_cast<int>(j), p->id, p->patch});
     }

@@ -76,10 +76,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// Largest warp of an aligned patch between the reference and the current view (PatchWarp),
-// as local mapping's (mapping.align_points).
-constexpr double kMaxAlignWarp = 0.08;
-
 double MsSince(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
 }
@@ -205,7 +201,7 @@ struct StereoTracker::Impl {
       m.P_prev = ref.points[i].p_c;
       m.uv_cur = cur.points[j].uv;
       if (align &&
-          PatchWarp(camera, *prior, ref.points[i].uv, ref.points[i].p_c.z()) <= kMaxAlignWarp) {
+          PatchWarp(camera, *prior, ref.points[i].uv, ref.points[i].p_c.z()) <= kMaxPatchWarp) {
         Eigen::Vector2d offset;
         if (AlignPatch(TakePatch(ref_left, ref.points[i].uv), cur_left, m.uv_cur, max_shift,
                        &offset))

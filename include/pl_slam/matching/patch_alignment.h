@@ -36,11 +36,14 @@ std::vector<uint8_t> TakePatch(const cv::Mat& image, const Eigen::Vector2d& uv);
 bool AlignPatch(const std::vector<uint8_t>& patch, const cv::Mat& image, const Eigen::Vector2d& uv,
                 double max_offset, Eigen::Vector2d* offset);
 
+/// Largest PatchWarp at which an alignment is trusted: it moves the corners of an 11x11 patch
+/// by under 0.6 px.
+constexpr double kMaxPatchWarp = 0.08;
+
 /// How much the image around `uv_ref` (depth z_ref in the reference camera) is stretched,
 /// sheared or turned in the current view T_cur_ref, the surface taken as facing the reference
 /// camera: the largest |singular value - 1| of the local mapping's Jacobian (central
-/// differences over 1 px) or its rotation angle, infinity when not computable. 0.08 moves the
-/// corners of an 11x11 patch by under 0.6 px.
+/// differences over 1 px) or its rotation angle, infinity when not computable.
 double PatchWarp(const StereoCamera& cam, const SE3& T_cur_ref, const Eigen::Vector2d& uv_ref,
                  double z_ref);
 
