@@ -149,6 +149,39 @@ TEST(LineDetector, KeepsTheLongestAndDropsShortOnes) {
   EXPECT_GT(top.back().length, 250.0);
 }
 
+// A dashed marking running into the view at 20 deg from the rows: the detector finds each
+// dash's long edge as a piece and joins the pieces. The joined line must be the line through
+// all of them: its direction averaged from the short pieces' own directions misses the far
+// end by a fraction of a pixel, which stereo turns into a pixel of disparity there.
+TEST(LineDetector, JoinedPiecesOfADashedEdgeLieOnTheirCommonLine) {
+  Canvas canvas(752, 480, 50);
+  const double angle = 20.0 * kPi / 180.0;
+  const Eigen::Vector2d dir(std::cos(angle), std::sin(angle)), normal(-dir.y(), dir.x());
+  const Eigen::Vector2d start(60.3, 90.7);
+  constexpr double kDash = 30.0, kGap = 3.0, kWidth = 5.0;
+  for (int k = 0; k < 16; ++k) {
+    const Eigen::Vector2d a = start + (k * (kDash + kGap)) * dir, b = a + kDash * dir;
+    const Eigen::Vector2d c = b + kWidth * normal, d = a + kWidth * normal;
+    canvas.FillPolygon({{a.x(), a.y()}, {b.x(), b.y()}, {c.x(), c.y()}, {d.x(), d.y()}}, 210);
+  }
+  LineDetector det{LineDetectorOptions()};
+  LineFeatures lines;
+  cv::Mat desc;
+  det.Detect(canvas.Image(), &lines, &desc);
+  // The dashes' edge on the line start + t dir: one segment joining the 16 pieces (a dash's
+  // edge is 30 px, the run 525 px).
+  const Eigen::Vector2d line_a = start, line_b = start + dir;
+  const LineFeature* edge = nullptr;
+  for (const LineFeature& f : lines)
+    if (DistToLine(f.s, line_a, line_b) < 2.0 && DistToLine(f.e, line_a, line_b) < 2.0 &&
+        (!edge || f.length > edge->length))
+      edge = &f;
+  ASSERT_NE(edge, nullptr);
+  EXPECT_GT(edge->length, 450.0);
+  EXPECT_LT(DistToLine(edge->s, line_a, line_b), 0.25);
+  EXPECT_LT(DistToLine(edge->e, line_a, line_b), 0.25);
+}
+
 TEST(LineDetector, EmptyUniformAndTinyImagesGiveNothing) {
   LineDetector det{LineDetectorOptions()};
   LineFeatures lines(3);
