@@ -97,15 +97,21 @@ inline void SubPixelEdge(const uint16_t* mag, int stride, EdgePoint* p) {
 class LineFit {
  public:
   explicit LineFit(float ox, float oy) : ox_(ox), oy_(oy) {}
-  void Add(float x, float y) {
+  void Add(float x, float y, double weight = 1.0) {
     const double u = x - ox_, v = y - oy_;
-    n_ += 1;
-    su_ += u;
-    sv_ += v;
-    suu_ += u * u;
-    suv_ += u * v;
-    svv_ += v * v;
+    n_ += weight;
+    su_ += weight * u;
+    sv_ += weight * v;
+    suu_ += weight * u * u;
+    suv_ += weight * u * v;
+    svv_ += weight * v * v;
     dirty_ = true;
+  }
+  // Unit direction of the fitted line (the normal turned by 90 deg).
+  void Direction(double* dx, double* dy) {
+    if (dirty_) Refit();
+    *dx = -ny_;
+    *dy = nx_;
   }
   // Signed distance of (x, y) to the fitted line.
   double Distance(float x, float y) {
@@ -416,49 +422,16 @@ void DetectEdgeChainSegments(const LineDetectorOptions& opt, float min_piece_len
   }
 }
 
-// Moments of the edge points of merged pieces, each piece a uniform run along its segment:
-// mass (length), first and second moments, about a fixed origin (the first piece's start).
-class EdgeMass {
- public:
-  EdgeMass() = default;
-  explicit EdgeMass(const RawSegment& s) : ox_(s.x1), oy_(s.y1) { AddSegment(s); }
-  void Add(const EdgeMass& o) {
-    // o's moments moved to this origin.
-    const double ex = o.ox_ - ox_, ey = o.oy_ - oy_;
-    sxx_ += o.sxx_ + 2.0 * ex * o.sx_ + ex * ex * o.w_;
-    sxy_ += o.sxy_ + ex * o.sy_ + ey * o.sx_ + ex * ey * o.w_;
-    syy_ += o.syy_ + 2.0 * ey * o.sy_ + ey * ey * o.w_;
-    sx_ += o.sx_ + ex * o.w_;
-    sy_ += o.sy_ + ey * o.w_;
-    w_ += o.w_;
-  }
-  // The principal line: a point (the centroid) and the unit direction.
-  void Line(double* cx, double* cy, double* dx, double* dy) const {
-    const double mx = sx_ / w_, my = sy_ / w_;
-    const double cxx = sxx_ / w_ - mx * mx, cxy = sxy_ / w_ - mx * my, cyy = syy_ / w_ - my * my;
-    const double theta = 0.5 * std::atan2(2.0 * cxy, cxx - cyy);
-    *cx = mx + ox_;
-    *cy = my + oy_;
-    *dx = std::cos(theta);
-    *dy = std::sin(theta);
-  }
-
- private:
-  void AddSegment(const RawSegment& s) {
-    const double x1 = s.x1 - ox_, y1 = s.y1 - oy_, x2 = s.x2 - ox_, y2 = s.y2 - oy_;
-    const double len = std::hypot(x2 - x1, y2 - y1);
-    const double mx = 0.5 * (x1 + x2), my = 0.5 * (y1 + y2);
-    const double ux = x2 - x1, uy = y2 - y1;  // spread along the piece: (len u)^2 / 12
-    w_ += len;
-    sx_ += len * mx;
-    sy_ += len * my;
-    sxx_ += len * (mx * mx + ux * ux / 12.0);
-    sxy_ += len * (mx * my + ux * uy / 12.0);
-    syy_ += len * (my * my + uy * uy / 12.0);
-  }
-  double ox_ = 0.0, oy_ = 0.0;
-  double w_ = 0.0, sx_ = 0.0, sy_ = 0.0, sxx_ = 0.0, sxy_ = 0.0, syy_ = 0.0;
-};
+// Adds a piece to `fit` as a uniform run of edge points along it: two points of half its
+// length as weight, 1 / sqrt(12) of its length either side of its centre, have its moments.
+void AddPiece(const RawSegment& s, LineFit* fit) {
+  const double len = s.Length(), k = 0.5 / std::sqrt(3.0);
+  const float mx = 0.5f * (s.x1 + s.x2), my = 0.5f * (s.y1 + s.y2);
+  const float ex = static_cast<float>(k * (s.x2 - s.x1)),
+              ey = static_cast<float>(k * (s.y2 - s.y1));
+  fit->Add(mx - ex, my - ey, 0.5 * len);
+  fit->Add(mx + ex, my + ey, 0.5 * len);
+}
 
 // Joins collinear pieces of one edge that edge detection or the run splitter cut apart
 // (junctions, weak spots): same polarity-aware direction, endpoints close to each other's line,
@@ -480,8 +453,6 @@ void MergeCollinear(const LineDetectorOptions& opt, std::vector<RawSegment>* seg
   std::sort(segs.begin(), segs.end(),
             [](const RawSegment& a, const RawSegment& b) { return a.Length() > b.Length(); });
   for (int i = 0; i < n; ++i) update(i);
-  std::vector<EdgeMass> mass(n);
-  for (int i = 0; i < n; ++i) mass[i] = EdgeMass(segs[i]);
   // Candidates come from an angle-sorted index, so each piece only meets the few pieces
   // of nearly the same direction instead of all of them.
   std::vector<int> by_angle(n);
@@ -499,8 +470,13 @@ void MergeCollinear(const LineDetectorOptions& opt, std::vector<RawSegment>* seg
   std::vector<char> alive(n, 1);
   std::vector<int> candidates;
   for (int i = 0; i < n; ++i) {
+    if (!alive[i]) continue;
+    // A piece absorbs only later (shorter) ones, which have absorbed nothing yet: the fit
+    // takes each as one piece.
+    LineFit fit(segs[i].x1, segs[i].y1);
+    AddPiece(segs[i], &fit);
     // Again while the piece grows: a piece beyond the gap may be within it of the longer one.
-    for (bool grew = alive[i] != 0; grew;) {
+    for (bool grew = true; grew;) {
       grew = false;
       candidates.clear();
       const float a0 = geom[i].angle;
@@ -533,15 +509,16 @@ void MergeCollinear(const LineDetectorOptions& opt, std::vector<RawSegment>* seg
         // directions instead tilts the joined line (a dashed edge of 30 px pieces: 0.5 deg, its
         // ends 0.6 px off), and stereo turns an offset across a segment into 1 / sin(angle to
         // the rows) times as much disparity error.
-        mass[i].Add(mass[j]);
-        double cx_d, cy_d, dx_d, dy_d;
-        mass[i].Line(&cx_d, &cy_d, &dx_d, &dy_d);
+        AddPiece(b, &fit);
+        double dx_d, dy_d;
+        fit.Direction(&dx_d, &dy_d);
         if (dx_d * ga.ux + dy_d * ga.uy < 0.0) {  // keep the polarity-aware direction
           dx_d = -dx_d;
           dy_d = -dy_d;
         }
         const float dx = static_cast<float>(dx_d), dy = static_cast<float>(dy_d);
-        const float cx = static_cast<float>(cx_d), cy = static_cast<float>(cy_d);
+        float cx, cy;  // a point of the line
+        fit.Project(a.x1, a.y1, &cx, &cy);
         const float ts[4] = {
             dx * (a.x1 - cx) + dy * (a.y1 - cy), dx * (a.x2 - cx) + dy * (a.y2 - cy),
             dx * (b.x1 - cx) + dy * (b.y1 - cy), dx * (b.x2 - cx) + dy * (b.y2 - cy)};
