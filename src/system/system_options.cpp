@@ -34,9 +34,6 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.depth_noise", &tr.depth_noise,
         "disparity noise of stereo features relative to their pixel noise, weighting "
         "residuals by their depth error under the motion (0 = depths exact, off)");
-  t.Add("tracker.clip_lines_to_view", &tr.clip_lines_to_view,
-        "line residuals only along the part of the reference segment the predicted pose shows "
-        "in the image (beyond it the observed line is extrapolated); false = whole segments");
   t.Add("tracker.track_keyframe", &tr.track_keyframe,
         "refine each pose against the last keyframe (errors add up per keyframe, not per frame)");
   t.Add("tracker.keyframe_min_inlier_ratio", &tr.keyframe_min_inlier_ratio,

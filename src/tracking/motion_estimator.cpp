@@ -550,17 +550,6 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
   return out;
 }
 
-bool ClipLineToView(const StereoCamera& cam, const SE3& T_cur_prev, double min_depth,
-                    LineMatch3D2D* m) {
-  double t0 = 0.0, t1 = 1.0;
-  if (!cam.SegmentInView(T_cur_prev * m->P_prev, T_cur_prev * m->Q_prev, min_depth, &t0, &t1))
-    return false;
-  const Eigen::Vector3d P = m->P_prev, D = m->Q_prev - m->P_prev;
-  m->P_prev = P + t0 * D;
-  m->Q_prev = P + t1 * D;
-  return true;
-}
-
 bool SigmaWithin(const Matrix6d& covariance, double max_m, double max_rad) {
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> t(covariance.topLeftCorner<3, 3>());
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> r(covariance.bottomRightCorner<3, 3>());

@@ -221,8 +221,6 @@ struct StereoTracker::Impl {
       m.P_prev = lr.P_c;
       m.Q_prev = lr.Q_c;
       m.l_cur = cur.lines[j].l;
-      if (prior && options.clip_lines_to_view)
-        ClipLineToView(camera, *prior, options.motion.min_depth, &m);
       m.weight = options.line_weight;
       // Endpoint disparities come from crossing the image rows: the flatter, the noisier.
       m.depth_noise = options.depth_noise / std::max(std::abs(std::sin(lr.angle)), 0.1);

@@ -45,11 +45,6 @@ struct StereoCamera {
     const double z = DepthFromDisparity(d);
     return {(u - cx) * z / fx, (v - cy) * z / fy, z};
   }
-  /// The part of the left-camera segment P_c + t (Q_c - P_c), t in [0, 1], that lies at least
-  /// min_depth in front of the camera and projects inside the image: [*t0, *t1]. Returns false
-  /// (outputs untouched) when no part does.
-  bool SegmentInView(const Eigen::Vector3d& P_c, const Eigen::Vector3d& Q_c, double min_depth,
-                     double* t0, double* t1) const;
   /// True when pixel (u, v) lies inside the image.
   bool InImage(const Eigen::Vector2d& uv, double border = 0.0) const {
     return uv.x() >= border && uv.y() >= border && uv.x() < width - border &&

@@ -147,15 +147,6 @@ struct MotionEstimate {
 /// callers check success first).
 bool SigmaWithin(const Matrix6d& covariance, double max_m, double max_rad);
 
-/// Clips a line match's 3D segment to the part that T_cur_prev shows in the current image, at
-/// least min_depth in front of the camera. The residual compares projected endpoints with the
-/// line fitted to the current image's pixels; an endpoint beyond the image would extrapolate
-/// that fit past its pixels and multiply its direction error by the distance (a road line
-/// leaving the bottom of the image reaches 100 px beyond it after two frames of driving).
-/// Returns false, leaving the match untouched, when no part of the segment is in view.
-bool ClipLineToView(const StereoCamera& cam, const SE3& T_cur_prev, double min_depth,
-                    LineMatch3D2D* m);
-
 /// Point residual r = pi(T P) - uv (pixels) and, when J is not null, its Jacobian dr/dd for the
 /// left perturbation T <- Exp(d) * T, d = [rho; phi]. Returns false and leaves r and J untouched
 /// when the transformed point's depth is not above min_depth (behind the camera, or NaN).

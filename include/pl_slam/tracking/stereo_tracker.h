@@ -59,11 +59,6 @@ struct TrackerOptions {
   /// angle to the image rows. 0 (the default) takes stereo depths as exact: 1 and 0.3 did not
   /// lower the street family's VO error (docs/BENCHMARKS.md, "Design decisions").
   double depth_noise = 0.0;
-  /// Line residuals measure only the part of the reference segment that the predicted pose
-  /// shows in the current image (ClipLineToView): beyond the image the current line is an
-  /// extrapolation of its fit. Road lines leaving the bottom of the image biased the street
-  /// family's visual odometry sideways (docs/BENCHMARKS.md, "Design decisions").
-  bool clip_lines_to_view = true;
   /// Refine each frame-to-frame pose against the last keyframe: the keyframe's stereo
   /// features are matched to the frame directly and the pose re-estimated from them, so
   /// errors add up per keyframe instead of per frame.
