@@ -216,8 +216,9 @@ DESIGN_DECISIONS = [
      "the prediction leaves fast_turn at 4.4 mm. Also tried, with mapping: clipping in the "
      "keyframe-insertion refinement (street slam medians 0.021 -> 0.029 m tuning, 0.045 -> "
      "0.033 m held out), in bundle adjustment (the residual taken at fixed fractions along the "
-     "landmark: 0.024 and 0.041 m, room 1.8 mm), and the observed-endpoint residual in bundle "
-     "adjustment (0.021 and 0.032 m, but the KITTI clip 0.596 m). None was kept."),
+     "landmark: 0.024 and 0.041 m, room 1.8 mm), and, with the keyframe-insertion clipping, "
+     "the observed-endpoint residual in bundle adjustment (0.021 and 0.032 m, but the KITTI "
+     "clip 0.596 m). None was kept."),
     ("Point detection ranks ORB's candidates itself",
      "OpenCV's ORB measures the orientation of every candidate in the pool (oversample 8: "
      "about 5700 on a street image), of which bucketing keeps 800. The detector ranks the "
