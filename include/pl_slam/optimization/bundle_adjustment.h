@@ -24,7 +24,7 @@ struct BundleAdjustmentOptions {
   /// Re-optimise without the outliers of the first pass, as ORB-SLAM's local BA does. The
   /// Huber loss still lets a wrong line observation pull the first pass' solution; removed,
   /// street slam's held-out median ATE fell from 0.045 to 0.026 m (BENCHMARKS, design
-  /// decisions). It doubles the time of local BA (about 10 -> 20 ms at 752x480).
+  /// decisions). It doubles the time of local BA (corridor median 11 -> 23 ms).
   bool second_pass = true;
   /// Pixels (at octave 0) per unit of the chi2 outlier gates below: an observation is flagged
   /// after the solve when its residual exceeds sqrt(chi2) * outlier_sigma pixels (0.5: a stereo
