@@ -25,6 +25,7 @@ std::string BundleAdjustmentOptions::Validate() const {
   if (e.empty()) e = CheckRange("line_chi2_stereo", line_chi2_stereo, 0.0, 1e6, true);
   if (e.empty()) e = CheckRange("line_extent_weight", line_extent_weight, 0.0, 1e6);
   if (e.empty()) e = CheckRange("min_depth", min_depth, 0.0, 100.0);
+  if (e.empty()) e = CheckRange("disparity_sigma", disparity_sigma, 0.0, 100.0);
   if (e.empty()) e = CheckRange("num_threads", num_threads, 1, 64);
   if (e.empty() && schur != "sparse" && schur != "dense")
     e = "schur='" + schur + "' must be sparse or dense";
@@ -35,6 +36,8 @@ std::string BundleAdjustmentOptions::Validate() const {
 }
 
 namespace {
+
+constexpr double kChi2OneDof = 3.841;  // 95 %
 
 /// Squared whitened residual and the smallest depth of an observation at the current values.
 struct Evaluation {
@@ -150,6 +153,10 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   SE3Manifold manifold;
   ceres::Problem ceres_problem(problem_options);
   std::vector<ceres::ResidualBlockId> point_blocks(p.point_obs.size(), nullptr);
+  // With disparity_sigma > 0 a stereo point's disparity is a block of its own.
+  std::vector<ceres::ResidualBlockId> disparity_blocks(p.point_obs.size(), nullptr);
+  const bool split_disparity = options.disparity_sigma > 0.0;
+  const double huber_disparity = std::sqrt(kChi2OneDof);
   std::vector<ceres::ResidualBlockId> line_blocks(p.line_obs.size(), nullptr);
   auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
   std::vector<char> pose_used(np, 0);
@@ -176,7 +183,13 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
     double* point = point_params + 3 * o.point;
     ceres::CostFunction* cost;
     ceres::LossFunction* loss;
-    if (o.stereo) {
+    if (o.stereo && split_disparity) {
+      cost = new MonoPointCost(camera, o.uv, 0.0, o.sqrt_info);
+      loss = new ceres::HuberLoss(huber_point_mono);
+      disparity_blocks[k] = ceres_problem.AddResidualBlock(
+          new DisparityCost(camera, o.uv.x() - o.u_right, 1.0 / options.disparity_sigma),
+          new ceres::HuberLoss(huber_disparity), pose_params[o.pose].data(), point);
+    } else if (o.stereo) {
       cost = new StereoPointCost(camera, o.uv, o.u_right, o.sqrt_info);
       loss = new ceres::HuberLoss(huber_point_stereo);
     } else {
@@ -237,17 +250,28 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   AbortCallback abort_callback(abort);
   if (abort) solver.callbacks.push_back(&abort_callback);
 
+  std::vector<uint8_t> disparity_outlier(p.point_obs.size(), 0);
   // Flags the observations still in the problem; removed ones keep their flag.
   auto flag_outliers = [&]() {
     for (size_t k = 0; k < p.point_obs.size(); ++k) {
       if (!point_blocks[k]) continue;
       const BaPointObservation& o = p.point_obs[k];
-      const Evaluation ev =
-          EvaluatePoint(camera, SE3FromParams(pose_params[o.pose].data()),
-                        Eigen::Map<const Eigen::Vector3d>(point_params + 3 * o.point), o);
+      const SE3 T_c_w = SE3FromParams(pose_params[o.pose].data());
+      const Eigen::Map<const Eigen::Vector3d> p_w(point_params + 3 * o.point);
+      BaPointObservation left = o;
+      // A split observation: the left image decides, the disparity has its own gate.
+      left.stereo = o.stereo && !split_disparity;
+      const Evaluation ev = EvaluatePoint(camera, T_c_w, p_w, left);
       const double chi2_max =
-          (o.stereo ? options.point_chi2_stereo : options.point_chi2_mono) * sigma2;
+          (left.stereo ? options.point_chi2_stereo : options.point_chi2_mono) * sigma2;
       summary.point_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
+      if (disparity_blocks[k]) {
+        const Eigen::Vector3d X = T_c_w * p_w;
+        const double e =
+            (camera.fx * camera.baseline / X.z() - camera.doffs - (o.uv.x() - o.u_right)) /
+            options.disparity_sigma;
+        disparity_outlier[k] = !(e * e <= kChi2OneDof * sigma2);
+      }
     }
     for (size_t k = 0; k < p.line_obs.size(); ++k) {
       if (!line_blocks[k]) continue;
@@ -275,13 +299,20 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
   if (!summary.success)
     summary.message = abort && abort->load() ? std::string("aborted") : first.message;
   flag_outliers();
+  const int disparity_outliers =
+      static_cast<int>(std::count(disparity_outlier.begin(), disparity_outlier.end(), 1));
   if (summary.success && options.second_pass &&
-      summary.point_outliers + summary.line_outliers > 0) {
-    for (size_t k = 0; k < point_blocks.size(); ++k)
+      summary.point_outliers + summary.line_outliers + disparity_outliers > 0) {
+    for (size_t k = 0; k < point_blocks.size(); ++k) {
       if (point_blocks[k] && summary.point_outlier[k]) {
         ceres_problem.RemoveResidualBlock(point_blocks[k]);
         point_blocks[k] = nullptr;
       }
+      if (disparity_blocks[k] && (summary.point_outlier[k] || disparity_outlier[k])) {
+        ceres_problem.RemoveResidualBlock(disparity_blocks[k]);
+        disparity_blocks[k] = nullptr;
+      }
+    }
     for (size_t k = 0; k < line_blocks.size(); ++k)
       if (line_blocks[k] && summary.line_outlier[k]) {
         ceres_problem.RemoveResidualBlock(line_blocks[k]);

@@ -56,6 +56,37 @@ bool PointCost<kResiduals>::Evaluate(double const* const* parameters, double* re
   return true;
 }
 
+bool DisparityCost::Evaluate(double const* const* parameters, double* residuals,
+                             double** jacobians) const {
+  const SE3 T_c_w = SE3FromParams(parameters[0]);
+  const Eigen::Map<const Eigen::Vector3d> p_w(parameters[1]);
+  const Eigen::Vector3d X = T_c_w * p_w;
+  if (!(X.z() > min_depth_)) {
+    residuals[0] = 0.0;
+    if (jacobians) {
+      if (jacobians[0]) Eigen::Map<Eigen::Matrix<double, 1, 7>>(jacobians[0]).setZero();
+      if (jacobians[1]) Eigen::Map<Eigen::Matrix<double, 1, 3>>(jacobians[1]).setZero();
+    }
+    return true;
+  }
+  const double iz = 1.0 / X.z();
+  const double fb = camera_.fx * camera_.baseline;
+  residuals[0] = sqrt_info_ * (fb * iz - camera_.doffs - disparity_);
+  if (!jacobians) return true;
+  const Eigen::RowVector3d J_X(0.0, 0.0, -sqrt_info_ * fb * iz * iz);
+  if (jacobians[0]) {
+    Eigen::Map<Eigen::Matrix<double, 1, 7>> J(jacobians[0]);
+    J.leftCols<3>() = J_X;
+    J.middleCols<3>(3) = -J_X * Hat(X);
+    J(6) = 0.0;
+  }
+  if (jacobians[1]) {
+    Eigen::Map<Eigen::Matrix<double, 1, 3>> J(jacobians[1]);
+    J = J_X * T_c_w.rotation();
+  }
+  return true;
+}
+
 template class PointCost<2>;
 template class PointCost<3>;
 

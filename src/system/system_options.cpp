@@ -284,6 +284,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.ba.max_iterations", &ba.max_iterations, "Levenberg-Marquardt iterations per pass");
   t.Add("mapping.ba.second_pass", &ba.second_pass, "re-optimise without the first pass' outliers");
   t.Add("mapping.ba.outlier_sigma", &ba.outlier_sigma, "pixels per unit of the chi2 outlier gates");
+  t.Add("mapping.ba.disparity_sigma", &ba.disparity_sigma,
+        "a stereo point's disparity fitted as its own residual with this standard deviation, px "
+        "(0 = the right-image column, with the left image's)");
   t.Add("mapping.ba.point_chi2_mono", &ba.point_chi2_mono, "point outlier threshold, 2 dof");
   t.Add("mapping.ba.point_chi2_stereo", &ba.point_chi2_stereo, "point outlier threshold, 3 dof");
   t.Add("mapping.ba.line_chi2_mono", &ba.line_chi2_mono, "line outlier threshold, 2 dof");

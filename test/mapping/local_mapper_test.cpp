@@ -121,7 +121,7 @@ TEST(LocalMapperTest, MappingBeatsVisualOdometryAlone) {
   EXPECT_EQ(without.counts.keyframes, 0u);
 }
 
-// mapping.align_points (off by default): the observations of landmarks made in earlier
+// mapping.align_points (on by default): the observations of landmarks made in earlier
 // keyframes are moved to where the landmark's reference patch aligns, by under 2.5 px, most by
 // a fraction of a pixel; a landmark's own reference observation stays where it was detected.
 // Off, nothing moves.

@@ -111,8 +111,10 @@ TEST(PointCostTest, JacobiansMatchCentralDifferences) {
     const Eigen::Vector2d obs = cam.Project(p_c) + Eigen::Vector2d(1.5, -2.0);
     MonoPointCost mono(cam, obs, 0.0, 0.8);
     StereoPointCost stereo(cam, obs, obs.x() - 20.0, 0.8);
+    DisparityCost disparity(cam, 20.0, 2.5);
     EXPECT_LT(JacobianError(mono, {PoseParams(T_c_w), Vec(p_w)}), 1e-5);
     EXPECT_LT(JacobianError(stereo, {PoseParams(T_c_w), Vec(p_w)}), 1e-5);
+    EXPECT_LT(JacobianError(disparity, {PoseParams(T_c_w), Vec(p_w)}), 1e-5);
   }
 }
 
@@ -227,6 +229,15 @@ TEST(StereoCostsTest, RightImageResidualsFollowThePrincipalPointOffset) {
   StereoPointCost plain(Camera(), cam.Project(P_c), cam.ProjectRight(P_c).x(), 1.0);
   ASSERT_TRUE(plain.Evaluate(point_params, r, nullptr));
   EXPECT_NEAR(std::abs(r[2]), 2.5, 1e-9);
+  // The disparity residual measures left column minus right column, offset included, and is
+  // whitened by its own information.
+  const double measured = cam.Project(P_c).x() - cam.ProjectRight(P_c).x();
+  DisparityCost disparity(cam, measured, 4.0);
+  ASSERT_TRUE(disparity.Evaluate(point_params, r, nullptr));
+  EXPECT_NEAR(r[0], 0.0, 1e-9);
+  DisparityCost off(cam, measured - 0.5, 4.0);
+  ASSERT_TRUE(off.Evaluate(point_params, r, nullptr));
+  EXPECT_NEAR(r[0], 2.0, 1e-9);
 }
 
 // The extent gauge of a line landmark: holds the endpoints along the line only.

@@ -80,9 +80,11 @@ struct MappingOptions {
   /// Bundle adjustment places each point observation where the landmark's patch from its
   /// reference keyframe aligns best (translation, zero-mean, matching/patch_alignment.h)
   /// rather than at the detected corner: a detector does not find the same surface point of
-  /// a corner from every view. Off by default: it helps the low-texture family and the
-  /// corridor but not the street family or the room (docs/BENCHMARKS.md, design decisions).
-  bool align_points = false;
+  /// a corner from every view. Needed with the disparity fitted on its own
+  /// (mapping.ba.disparity_sigma): depths held by stereo leave the detector's view-dependent
+  /// offsets to the poses (the held-out bare office, 4 -> 14 mm, without it; docs/BENCHMARKS.md,
+  /// design decisions).
+  bool align_points = true;
   bool track_local_map = true;  ///< tracking also matches the local map (bounded drift)
   int track_min_inliers = 20;   ///< fewer local-map inliers: keep the frame-to-frame pose
   /// The local-map pose replaces the frame-to-frame one only with at least this many inliers

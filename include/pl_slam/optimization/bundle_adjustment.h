@@ -36,6 +36,16 @@ struct BundleAdjustmentOptions {
   double line_chi2_mono = 5.991;     ///< lines, 2 dof
   double line_chi2_stereo = 9.488;   ///< lines, 4 dof
   double min_depth = 0.05;           ///< observations whose point is closer (m) are outliers
+  /// Standard deviation (pixels at any octave) of a stereo point's disparity, fitted then as
+  /// a residual of its own (DisparityCost) next to the left-image position, with its own Huber
+  /// loss and outlier gate (chi2, 1 dof, in units of outlier_sigma): a disparity outlier leaves
+  /// the second pass, the left-image observation stays. The stereo matcher refines the
+  /// disparity at full resolution on its own, so the right column is not a second independent
+  /// measurement of the left one's position. 1 = the left image's standard deviation at octave
+  /// 0. 0 = the right-image column is fitted as a third residual of the point, with the left
+  /// image's standard deviation (corridor 2.4 mm, KITTI clip 0.509 m against 1.5 mm and 0.495 m
+  /// with the default and mapping.align_points; docs/BENCHMARKS.md, design decisions).
+  double disparity_sigma = 1.0;
   /// Weight (per metre) of LineExtentCost, which holds each line landmark's endpoints where
   /// they are along the line (the observations do not constrain that direction); 0 = off.
   double line_extent_weight = 5.0;

@@ -35,6 +35,28 @@ class PointCost final : public ceres::SizedCostFunction<kResiduals, 7, 3> {
   double min_depth_;
 };
 
+/// Disparity residual of a stereo point observed at `disparity` (left column minus right):
+/// sqrt_info * (fx * baseline / z - doffs - disparity), z the point's depth in T_c_w. The
+/// stereo matcher refines a disparity on its own (matching/point_matching.h), so it is a
+/// measurement of its own, with its own noise and outliers, next to MonoPointCost's left-image
+/// position. Parameter blocks as PointCost's; below min_depth zero residual and Jacobians.
+class DisparityCost final : public ceres::SizedCostFunction<1, 7, 3> {
+ public:
+  EIGEN_MAKE_ALIGNED_OPERATOR_NEW
+  DisparityCost(const StereoCamera& camera, double disparity, double sqrt_info,
+                double min_depth = 1e-3)
+      : camera_(camera), disparity_(disparity), sqrt_info_(sqrt_info), min_depth_(min_depth) {}
+
+  bool Evaluate(double const* const* parameters, double* residuals,
+                double** jacobians) const override;
+
+ private:
+  StereoCamera camera_;
+  double disparity_;
+  double sqrt_info_;
+  double min_depth_;
+};
+
 using MonoPointCost = PointCost<2>;
 using StereoPointCost = PointCost<3>;
 
