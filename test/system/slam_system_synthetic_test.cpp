@@ -45,7 +45,7 @@ TEST(SlamSystemSynthetic, RoomIsTrackedAccuratelyWithPointsAndLines) {
             << ", keyframes " << r.keyframes << "\n";
   EXPECT_EQ(r.lost, 0);
   EXPECT_DOUBLE_EQ(r.eval.coverage.ratio, 1.0);
-  // Measured 3 mm over ~3 m walked; 15 mm catches a regression without flaking on noise.
+  // Measured 0.8 mm over ~3 m walked; 15 mm catches a regression without flaking on noise.
   EXPECT_LT(r.eval.ate.translation.rmse, 0.015);
   EXPECT_GT(r.keyframes, 3);
   EXPECT_LT(r.keyframes, 60);
@@ -57,7 +57,7 @@ TEST(SlamSystemSynthetic, LowTextureCorridorNeedsLines) {
   std::cout << "corridor 100 frames, points+lines: ATE " << lines.eval.ate.translation.rmse
             << " m, lost " << lines.lost << "\n";
   EXPECT_EQ(lines.lost, 0);
-  // Measured 2.6 mm over 5 m of corridor; see docs/BENCHMARKS.md for points only.
+  // Measured 0.7 mm over 5 m of corridor; see docs/BENCHMARKS.md for points only.
   EXPECT_LT(lines.eval.ate.translation.rmse, 0.015);
 }
 
