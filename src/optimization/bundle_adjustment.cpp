@@ -266,10 +266,8 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
           (left.stereo ? options.point_chi2_stereo : options.point_chi2_mono) * sigma2;
       summary.point_outlier[k] = ev.depth < options.min_depth || ev.chi2 > chi2_max;
       if (disparity_blocks[k]) {
-        const Eigen::Vector3d X = T_c_w * p_w;
-        const double e =
-            (camera.fx * camera.baseline / X.z() - camera.doffs - (o.uv.x() - o.u_right)) /
-            options.disparity_sigma;
+        double e = 0.0;  // whitened by DisparityCost; a point too close is flagged above
+        ceres_problem.EvaluateResidualBlock(disparity_blocks[k], false, nullptr, &e, nullptr);
         disparity_outlier[k] = !(e * e <= kChi2OneDof * sigma2);
       }
     }
