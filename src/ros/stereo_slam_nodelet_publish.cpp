@@ -140,6 +140,7 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
   status.loops = static_cast<uint32_t>(result.loops);
   status.map_tracked = result.map_tracked;
   status.direct_aligned = result.direct_aligned;
+  status.prior_fused = result.prior_fused;
   status.relocalized = result.relocalized;
   status.localization_only = system_->localization_only();
   for (const auto& [name, ms] : result.stage_ms) {

@@ -326,6 +326,14 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     result.direct_aligned = true;
     PL_LOG_DEBUG("frame " << frame.index << ": features too few, direct alignment held");
   }
+  if (!r.pose_valid && !s.relocalize_first && s.tracker->TrackFused(frame, &r)) {
+    // A few clustered matches: with the motion model as a prior they still hold.
+    result.prior_fused = true;
+    PL_LOG_DEBUG("frame " << frame.index << ": features too few alone, with the motion model "
+                          << "they held (" << r.point_inliers << " point and " << r.line_inliers
+                          << " line inliers of " << r.point_matches << " and " << r.line_matches
+                          << " matches)");
+  }
   if (!r.pose_valid && s.loop && s.options.loop.relocalize &&
       r.points_stereo + r.lines_stereo > 0 && s.map->LastKeyframe() != kNoId) {
     // Lost: look for the place in the map before restarting from the last pose.

@@ -47,6 +47,14 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.lost_rotation_min_inliers", &tr.lost_rotation_min_inliers,
         "while lost, the rotation comes from the frame's matches with at least this many "
         "inliers, within relaxed_max_deviation_deg of the model's (0 = the model's)");
+  t.Add("tracker.fused_min_inliers", &tr.fused_min_inliers,
+        "a frame too poor for its own estimate right after a tracked one is fitted with the "
+        "constant-velocity prediction as a prior and kept (flagged prior_fused) with at least "
+        "this many inliers agreeing with it (0 = off)");
+  t.Add("tracker.fused_sigma", &tr.fused_sigma,
+        "that prior: the change of motion per axis and frame it allows, on top of the last "
+        "motion's own covariance, m");
+  t.Add("tracker.fused_sigma_deg", &tr.fused_sigma_deg, "the same, deg");
 
   PointDetectorOptions& p = tr.points;
   t.Add("tracker.points.max_points", &p.max_points, "ORB keypoints kept per image");
@@ -172,6 +180,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "points with a current stereo match are also fitted in the right image");
   t.Add("tracker.motion.min_sigma_px", &m.min_sigma_px,
         "floor on the residual sigma scaling the covariance, px");
+  t.Add("tracker.motion.prior_min_sigma_px", &m.prior_min_sigma_px,
+        "with a motion prior (tracker.fused_*): the matches' noise is taken as at least this "
+        "against it and in the covariance, px");
 
   ConsensusOptions& c = tr.consensus;
   t.Add("tracker.consensus.enabled", &c.enabled,

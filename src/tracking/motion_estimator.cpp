@@ -49,6 +49,7 @@ struct Threshold {
   // 99 % it is 0.95: left alone the covariance would be ~5 % optimistic once the threshold
   // exceeds outlier_min_px).
   double keep = 1.0;
+  double sigma2 = 0.0;  // sigma_robust^2, per scalar residual
 };
 
 // The correspondences of one EstimateMotion call and which of them take part. Everything here
@@ -63,6 +64,13 @@ struct Problem {
   std::vector<uint8_t> line_active;
   Threshold point_threshold;  // set by SelectInliers
   Threshold line_threshold;
+  SE3 prior;                               // the motion prior (prior_covariance)
+  Matrix6d prior_info = Matrix6d::Zero();  // its information (metric)
+  bool with_prior = false;
+  // Squared pixels per unit of the prior's squared Mahalanobis distance: the correspondences'
+  // noise variance, floored at prior_min_sigma_px^2 (the first step: the floor; the second:
+  // their robust variance from SelectInliers, floored).
+  double prior_scale = 1.0;
 };
 
 // Normal equations of the IRLS Gauss-Newton step at one pose.
@@ -207,6 +215,17 @@ void Accumulate(const Problem& p, const SE3& T, bool jacobians, Normal* n) {
   // threshold: otherwise a step could lower the cost just by making residuals disappear.
   const double max2 = p.opt.outlier_max_px * p.opt.outlier_max_px;
   n->cost += skipped * PseudoHuberLoss(max2, delta);
+  // The motion prior, quadratic (not robust): its residual is the left perturbation from the
+  // prior, whose Jacobian under T <- Exp(d) * T is the identity to first order.
+  if (p.with_prior) {
+    const Vector6d d = (T * p.prior.inverse()).Log();
+    const Vector6d info_d = p.prior_scale * (p.prior_info * d);
+    n->cost += d.dot(info_d);
+    if (jacobians) {
+      n->H += p.prior_scale * p.prior_info;
+      n->g += info_d;
+    }
+  }
 }
 
 // LM-damped IRLS Gauss-Newton from *T over the active correspondences. False (with a reason)
@@ -271,6 +290,7 @@ Threshold OutlierThreshold(std::vector<double>* s, const MotionEstimatorOptions&
   auto mid = s->begin() + s->size() / 2;
   std::nth_element(s->begin(), mid, s->end());
   const double sigma2 = *mid / kChi2Median2Dof;
+  t.sigma2 = sigma2;
   t.thr2 = std::clamp(opt.outlier_chi2 * sigma2, lo, hi);
   if (sigma2 > 0.0) {
     // chi2(2) / 2 is exponential with unit mean: truncated at a, its mean is
@@ -322,6 +342,10 @@ void SelectInliers(Problem* p, const SE3& T, std::vector<double>* scratch) {
   p->point_threshold =
       point_s.size() >= kMinForOwnScale ? OutlierThreshold(&point_s, p->opt) : pooled;
   p->line_threshold = line_s.size() >= kMinForOwnScale ? OutlierThreshold(&line_s, p->opt) : pooled;
+  if (p->with_prior) {
+    const double floor = std::max(p->opt.min_sigma_px, p->opt.prior_min_sigma_px);
+    p->prior_scale = std::max(pooled.sigma2, floor * floor);
+  }
   for (std::size_t i = 0; i < np; ++i) {
     p->point_active[i] = s[i] >= 0.0 && s[i] <= p->point_threshold.thr2;
   }
@@ -348,6 +372,7 @@ std::string MotionEstimatorOptions::Validate() const {
   check(CheckRange("min_inliers", min_inliers, 3, 1000000));
   check(CheckRange("rank_tolerance", rank_tolerance, 0.0, 1.0, true));
   check(CheckRange("min_sigma_px", min_sigma_px, 0.0, 100.0, true));
+  check(CheckRange("prior_min_sigma_px", prior_min_sigma_px, 0.0, 100.0));
   if (first.empty() && !use_points && !use_lines) {
     first = "use_points=false and use_lines=false: at least one must be true";
   }
@@ -401,7 +426,8 @@ bool LineResidualAndJacobian(const StereoCamera& cam, const SE3& T_cur_prev,
 
 MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& points,
                               const LineMatches3D2D& lines, const SE3& prior_T_cur_prev,
-                              const MotionEstimatorOptions& options) {
+                              const MotionEstimatorOptions& options,
+                              const Matrix6d* prior_covariance) {
   const std::string bad = options.Validate();
   if (!bad.empty()) throw ConfigError("motion estimator: " + bad);
 
@@ -427,7 +453,31 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
     return fail("camera intrinsics are not valid");
   }
 
-  Problem p{cam, points, lines, options, {}, {}, {}, {}, {}};
+  Problem p{cam,
+            points,
+            lines,
+            options,
+            {},
+            {},
+            {},
+            {},
+            {},
+            prior_T_cur_prev,
+            Matrix6d::Zero(),
+            false,
+            std::max(options.min_sigma_px * options.min_sigma_px,
+                     options.prior_min_sigma_px * options.prior_min_sigma_px)};
+  const bool with_prior = prior_covariance != nullptr;
+  if (with_prior) {
+    if (options.rotation_only) return fail("a prior covariance with rotation_only");
+    const Matrix6d c = 0.5 * (*prior_covariance + prior_covariance->transpose());
+    const Eigen::LLT<Matrix6d> llt(c);
+    if (!c.allFinite() || llt.info() != Eigen::Success)
+      return fail("the prior covariance is not finite and positive definite");
+    p.prior_info = llt.solve(Matrix6d::Identity());
+    p.prior_info = 0.5 * (p.prior_info + p.prior_info.transpose()).eval();
+    p.with_prior = true;
+  }
   p.point_active.assign(points.size(), 0);
   p.line_active.assign(lines.size(), 0);
   p.l.resize(lines.size(), Eigen::Vector3d::Zero());
@@ -524,7 +574,10 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
   const double keep =
       (out.point_inliers * p.point_threshold.keep + out.line_inliers * p.line_threshold.keep) /
       std::max(1, out.point_inliers + out.line_inliers);
-  const double var = m > unknowns ? n.psi_sq / (m - unknowns) * c1 / (c2 * c2) / keep : 0.0;
+  // With a motion prior its six equations determine the six unknowns: all m residuals are
+  // free to measure the noise.
+  const int dof = with_prior ? m : m - unknowns;
+  const double var = dof > 0 ? n.psi_sq / dof * c1 / (c2 * c2) / keep : 0.0;
   out.sigma_px = std::max(std::sqrt(var), options.min_sigma_px);
   out.rmse_px = m > 0 ? std::sqrt(n.sq / m) : 0.0;
   // H^-1 = D^-1/2 N^-1 D^-1/2, through the eigenvectors of the well-scaled N.
@@ -532,6 +585,15 @@ MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& p
                          eig.eigenvectors().transpose();
   Matrix6d cov =
       out.sigma_px * out.sigma_px * (inv_sqrt.asDiagonal() * N_inv * inv_sqrt.asDiagonal());
+  if (with_prior) {
+    // The correspondences' information at their noise as weighed (floored at
+    // prior_min_sigma_px), plus the prior's (metric).
+    const double s2 = std::max(out.sigma_px * out.sigma_px,
+                               options.prior_min_sigma_px * options.prior_min_sigma_px);
+    Matrix6d info = (n.H - p.prior_scale * p.prior_info) / s2;
+    info += p.prior_info;
+    cov = info.ldlt().solve(Matrix6d::Identity());
+  }
   cov = 0.5 * (cov + cov.transpose()).eval();
   if (options.rotation_only) {
     cov.topRows<3>().setZero();

@@ -14,64 +14,6 @@
 
 namespace pl_slam {
 
-FeatureMode ParseFeatureMode(const std::string& name) {
-  if (name == "points") return FeatureMode::kPoints;
-  if (name == "lines") return FeatureMode::kLines;
-  if (name == "points_lines") return FeatureMode::kPointsAndLines;
-  throw ConfigError("mode='" + name + "' must be one of points, lines, points_lines");
-}
-
-const char* FeatureModeName(FeatureMode mode) {
-  switch (mode) {
-    case FeatureMode::kPoints:
-      return "points";
-    case FeatureMode::kLines:
-      return "lines";
-    case FeatureMode::kPointsAndLines:
-      return "points_lines";
-  }
-  return "?";
-}
-
-std::string TrackerOptions::Validate() const {
-  std::ostringstream os;
-  if (min_inliers < 6 || min_inliers > 1000)
-    os << "min_inliers=" << min_inliers << " must be in [6, 1000]";
-  else if (!(max_translation > 0.0 && max_translation <= 100.0))
-    os << "max_translation=" << max_translation << " must be in (0, 100]";
-  else if (!(max_rotation_deg > 0.0 && max_rotation_deg <= 180.0))
-    os << "max_rotation_deg=" << max_rotation_deg << " must be in (0, 180]";
-  else if (!(line_weight > 0.0 && line_weight <= 100.0))
-    os << "line_weight=" << line_weight << " must be in (0, 100]";
-  else if (!(depth_noise >= 0.0 && depth_noise <= 10.0))
-    os << "depth_noise=" << depth_noise << " must be in [0, 10]";
-  else if (!(keyframe_min_inlier_ratio >= 0.0 && keyframe_min_inlier_ratio <= 100.0))
-    os << "keyframe_min_inlier_ratio=" << keyframe_min_inlier_ratio << " must be in [0, 100]";
-  else if (!(keyframe_max_correction > 0.0 && keyframe_max_correction <= 100.0))
-    os << "keyframe_max_correction=" << keyframe_max_correction << " must be in (0, 100]";
-  else if (!(keyframe_max_correction_deg > 0.0 && keyframe_max_correction_deg <= 180.0))
-    os << "keyframe_max_correction_deg=" << keyframe_max_correction_deg << " must be in (0, 180]";
-  else if (relaxed_min_inliers < 0 || relaxed_min_inliers > 1000)
-    os << "relaxed_min_inliers=" << relaxed_min_inliers << " must be in [0, 1000]";
-  else if (!(relaxed_max_deviation > 0.0 && relaxed_max_deviation <= 10.0))
-    os << "relaxed_max_deviation=" << relaxed_max_deviation << " must be in (0, 10]";
-  else if (!(relaxed_max_deviation_deg > 0.0 && relaxed_max_deviation_deg <= 90.0))
-    os << "relaxed_max_deviation_deg=" << relaxed_max_deviation_deg << " must be in (0, 90]";
-  else if (max_predicted_frames < 0 || max_predicted_frames > 1000)
-    os << "max_predicted_frames=" << max_predicted_frames << " must be in [0, 1000]";
-  else if (lost_rotation_min_inliers < 0 || lost_rotation_min_inliers > 1000)
-    os << "lost_rotation_min_inliers=" << lost_rotation_min_inliers << " must be in [0, 1000]";
-  if (!os.str().empty()) return os.str();
-  const std::pair<const char*, std::string> nested[] = {
-      {"points.", points.Validate()},       {"point_matching.", point_matching.Validate()},
-      {"lines.", lines.Validate()},         {"line_matching.", line_matching.Validate()},
-      {"motion.", motion.Validate()},       {"consensus.", consensus.Validate()},
-      {"keyframes.", keyframes.Validate()}, {"direct.", direct.Validate()}};
-  for (const auto& [prefix, err] : nested)
-    if (!err.empty()) return prefix + err;
-  return "";
-}
-
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -115,6 +57,11 @@ struct StereoTracker::Impl {
   SE3 T_w_keyframe;
   SE3 velocity_cur_prev;  // last T_cur_prev: the constant-velocity prior
   bool velocity_valid = false;
+  // The covariance of velocity_cur_prev (left perturbation of T_cur_prev) when it is a
+  // tracked frame's estimate, not extrapolated or taken from a few-feature or direct one:
+  // the model TrackFused may lean on.
+  Matrix6d velocity_cov = Matrix6d::Zero();
+  bool velocity_cov_valid = false;
   int predicted_frames = 0;  // consecutive lost frames whose pose the motion model gave
   TrackerState state = TrackerState::kNotInitialized;
   // Direct alignment's reference (TrackDirect): the last frame with a pose, its images (a
@@ -152,6 +99,12 @@ struct StereoTracker::Impl {
     int point_matches = 0, line_matches = 0;
     double matching_ms = 0.0, motion_ms = 0.0;
   };
+  // TrackFused: the last Track() call's frame-to-frame matches and prediction, when it lost
+  // the frame right after a tracked one, and the pose of the frame they were matched to.
+  bool fused_pending = false;
+  Estimation fused_f2f;
+  SE3 fused_prior, T_w_fused_ref;
+  Matrix6d fused_velocity_cov = Matrix6d::Zero();
 
   /// Matches the features of a reference frame `ref` (with depth, in its camera frame) to the
   /// current frame, guided by `prior` (T_cur_ref) when given, and estimates T_cur_ref.
@@ -277,6 +230,47 @@ struct StereoTracker::Impl {
     return true;
   }
 
+  /// A frame too poor for its own estimate, fitted together with the constant-velocity
+  /// prediction `prior` (T_cur_prev) as a Gaussian prior (TrackerOptions::fused_min_inliers).
+  /// True with the estimate when the gates there hold.
+  bool FusedWithPrior(const Estimation& f2f, const SE3& prior, const Matrix6d& velocity_cov,
+                      MotionEstimate* out) const {
+    const int n = static_cast<int>(f2f.points.size() + f2f.lines.size());
+    if (options.fused_min_inliers <= 0 || n < options.fused_min_inliers) return false;
+    MotionEstimatorOptions fused = options.motion;
+    fused.rotation_only = false;
+    // The frame's own disparities measure the distance to the few features, which their
+    // spread in the image (a switch plate) does not.
+    fused.stereo_residual = true;
+    fused.min_inliers = options.fused_min_inliers;
+    // The prediction's uncertainty: the last motion's own, plus the change of motion a frame
+    // allows (the model's process noise).
+    const double st = options.fused_sigma, sr = options.fused_sigma_deg * M_PI / 180.0;
+    Matrix6d prior_cov = velocity_cov;
+    prior_cov.diagonal() +=
+        (Vector6d() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr).finished();
+    const MotionEstimate est =
+        EstimateMotion(camera, f2f.points, f2f.lines, prior, fused, &prior_cov);
+    if (!est.success) return false;
+    // The deviation within the prior's 99 % bound (chi2 with 6 dof) and the relaxed gate's:
+    // features that pull the pose further disagree with the model, and one of them is wrong.
+    const Vector6d d = (est.T_cur_prev * prior.inverse()).Log();
+    const double m2 = d.dot(prior_cov.ldlt().solve(d));
+    constexpr double kChi2SixDof99 = 16.81;
+    if (!(m2 <= kChi2SixDof99) || !AgreesWithModel(est.T_cur_prev, prior) ||
+        !WithinRelaxedSigma(est.covariance_prev_cur))
+      return false;
+    *out = est;
+    return true;
+  }
+
+  /// The deviation of T_cur_prev from the model's `prior` within the relaxed gate's.
+  bool AgreesWithModel(const SE3& T_cur_prev, const SE3& prior) const {
+    const SE3 deviation = T_cur_prev * prior.inverse();
+    return deviation.translation().norm() <= options.relaxed_max_deviation &&
+           deviation.RotationAngle() <= options.relaxed_max_deviation_deg * M_PI / 180.0;
+  }
+
   /// The last Track() call's frame, at T_w, becomes direct alignment's reference.
   void KeepForDirect(const SE3& T_w) {
     if (!options.direct.enabled || last_left.empty()) return;
@@ -315,11 +309,7 @@ struct StereoTracker::Impl {
   /// trade rotation against translation by centimetres within their covariance: such an
   /// estimate is not kept but becomes the model the next frame must agree with (Track).
   bool AgreesWithPrior(const MotionEstimate& est, const SE3& prior) const {
-    const SE3 deviation = est.T_cur_prev * prior.inverse();
-    if (deviation.translation().norm() > options.relaxed_max_deviation ||
-        deviation.RotationAngle() > options.relaxed_max_deviation_deg * M_PI / 180.0)
-      return false;
-    return WellConstrained(est);
+    return AgreesWithModel(est.T_cur_prev, prior) && WellConstrained(est);
   }
 
   /// The relaxed gate's own conditions: at least relaxed_min_inliers, and the estimate's
@@ -371,6 +361,7 @@ void StereoTracker::Reset() {
   s.frames_since_previous = 0;
   s.velocity_cur_prev = SE3();
   s.velocity_valid = false;
+  s.velocity_cov_valid = false;
   s.predicted_frames = 0;
   s.state = TrackerState::kNotInitialized;
   s.selector.Reset();
@@ -382,6 +373,13 @@ void StereoTracker::Rescued(const SE3& T_w_c) {
   Impl& s = *impl_;
   if (!T_w_c.IsFinite()) return;
   s.T_w_previous = T_w_c;
+  if (s.fused_pending) {
+    // Lost right after a tracked frame: the motion model stays that frame's measured one.
+    s.velocity_cur_prev = s.fused_prior;
+    s.velocity_cov = s.fused_velocity_cov;
+    s.velocity_cov_valid = true;
+    s.fused_pending = false;
+  }
   s.ResumeAt(T_w_c);
 }
 
@@ -417,6 +415,7 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
   result.T_w_c = s.T_w_c;
   s.last_left = frame.left;
   s.last_right = frame.right;
+  s.fused_pending = false;
 
   // 1. Features in both images; the right image on the tracker's helper thread (one thread
   //    for the tracker's life, see util/worker_thread.h).
@@ -542,6 +541,9 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     if (s.frames_since_previous <= 1 || !s.velocity_valid) {
       s.velocity_cur_prev = result.T_prev_cur.inverse();
       s.velocity_valid = true;
+      const Matrix6d Ad = s.velocity_cur_prev.Adjoint();
+      s.velocity_cov = Ad * result.covariance_prev_cur * Ad.transpose();
+      s.velocity_cov_valid = true;
     }
     s.predicted_frames = 0;
   }
@@ -580,6 +582,18 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     // valid pose for this frame), never a jump; the caller is told why.
     s.state = TrackerState::kLost;
     s.selector.Reset();
+    // Right after a tracked frame, this frame's matches may still hold with the model as a
+    // prior (TrackFused, once the local map has had its chance).
+    s.fused_pending = s.has_previous && s.velocity_valid && s.velocity_cov_valid &&
+                      s.predicted_frames == 0 && s.frames_since_previous == 1 &&
+                      s.options.fused_min_inliers > 0;
+    s.velocity_cov_valid = false;  // whatever the model becomes below, it is not measured
+    if (s.fused_pending) {
+      s.fused_f2f = f2f;
+      s.fused_prior = prior;
+      s.fused_velocity_cov = s.velocity_cov;
+      s.T_w_fused_ref = s.T_w_previous;
+    }
     if (candidate_motion && s.options.max_predicted_frames > 0) {
       // Confirmation over two frames: a wrong few-feature estimate does not predict the
       // next frame's motion. The pose moves by it (the best guess, flagged as predicted) and
@@ -657,6 +671,41 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
   result.T_w_c = s.T_w_c;
   result.stage_ms.emplace_back("keyframe", MsSince(t0));
   return result;
+}
+
+bool StereoTracker::TrackFused(const StereoFrame& frame, TrackerResult* r) {
+  Impl& s = *impl_;
+  if (!s.fused_pending || r->pose_valid || frame.left.data != s.last_left.data) return false;
+  s.fused_pending = false;
+  const auto t0 = Clock::now();
+  MotionEstimate est;
+  const bool ok = s.FusedWithPrior(s.fused_f2f, s.fused_prior, s.fused_velocity_cov, &est);
+  r->stage_ms.emplace_back("fused", MsSince(t0));
+  if (!ok) return false;
+  const SE3 T_prev_cur = est.T_cur_prev.inverse();
+  const SE3 T_w_c = s.T_w_fused_ref * T_prev_cur;
+  // The model becomes this motion with its uncertainty, prior included: the next frame's
+  // prior is only as certain as this estimate was.
+  s.velocity_cur_prev = est.T_cur_prev;
+  s.velocity_cov = est.covariance;
+  s.velocity_valid = true;
+  s.velocity_cov_valid = true;
+  // This frame's features, when it had any, are the next frame's reference already (Track).
+  if (s.frames_since_previous == 0) s.T_w_previous = T_w_c;
+  s.ResumeAt(T_w_c);
+  r->pose_valid = true;
+  r->state = TrackerState::kTracking;
+  r->T_w_c = T_w_c;
+  r->T_prev_cur = T_prev_cur;
+  r->covariance_prev_cur = est.covariance_prev_cur;
+  r->point_inliers = est.point_inliers;
+  r->line_inliers = est.line_inliers;
+  r->predicted = false;
+  r->rotation_measured = false;
+  r->prior_fused = true;
+  r->is_keyframe = false;
+  r->warning.clear();
+  return true;
 }
 
 bool StereoTracker::TrackDirect(const StereoFrame& frame, TrackerResult* r) {

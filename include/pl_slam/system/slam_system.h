@@ -77,6 +77,9 @@ struct FrameResult {
   /// Features were too few, and the pose comes from aligning the image directly to the last
   /// frame with a pose (StereoTracker::TrackDirect).
   bool direct_aligned = false;
+  /// Neither held either: the pose fits the frame's few matches with the motion model as a
+  /// prior (StereoTracker::TrackFused; never a keyframe).
+  bool prior_fused = false;
   /// Lost, and T_w_c is the motion model's prediction (covariance: the model's).
   bool predicted = false;
   int loops = 0;              ///< loops closed so far

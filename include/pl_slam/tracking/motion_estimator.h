@@ -106,6 +106,11 @@ struct MotionEstimatorOptions {
   /// through the features' spread. The outlier test divides such a point's squared residual
   /// by 3/2 (3 dof against 2).
   bool stereo_residual = false;
+  /// With a prior covariance (EstimateMotion): the correspondences' noise is taken as at least
+  /// this (pixels) when weighed against the prior and in the covariance. A few features' own
+  /// scatter understates their error (a detector's view-dependent offsets move them together),
+  /// and a prior they overrule on that understatement no longer holds what they leave open.
+  double prior_min_sigma_px = 1.0;
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;
@@ -173,8 +178,17 @@ double PseudoHuberWeight(double s, double delta);
 /// over the inliers. Never returns NaN; degenerate input (too few correspondences, unobservable
 /// motion, non-finite prior) is reported through success / failure. Throws ConfigError when
 /// options.Validate() fails. The camera's fx, fy, cx, cy must be valid (unchecked).
+///
+/// `prior_covariance` (optional; [rho; phi], left perturbation of prior_T_cur_prev, symmetric
+/// positive definite): the prior is then also a Gaussian measurement of the motion (a motion
+/// model's prediction with its uncertainty), which holds what the correspondences leave
+/// unobservable (a few clustered features trade rotation against translation): no direction
+/// is rank-deficient, and the covariance combines both. Prior and correspondences are weighed
+/// by their noise, the correspondences' robust residual variance floored at
+/// options.prior_min_sigma_px. Not with rotation_only.
 MotionEstimate EstimateMotion(const StereoCamera& cam, const PointMatches3D2D& points,
                               const LineMatches3D2D& lines, const SE3& prior_T_cur_prev,
-                              const MotionEstimatorOptions& options);
+                              const MotionEstimatorOptions& options,
+                              const Matrix6d* prior_covariance = nullptr);
 
 }  // namespace pl_slam

@@ -78,6 +78,21 @@ struct TrackerOptions {
   /// not keep the rate the model extrapolates, and the heading error of a gap is what the
   /// rest of the trajectory carries.
   int lost_rotation_min_inliers = 4;
+  /// A frame too poor for an estimate of its own (fewer inliers than the gates keep, or their
+  /// motion unobservable: a few clustered features) right after a tracked frame, when neither
+  /// the local map nor direct alignment holds it (TrackFused): its matches are fitted
+  /// together with the constant-velocity prediction as a Gaussian prior whose covariance is
+  /// the last motion's own plus fused_sigma, fused_sigma_deg per axis (the change of motion a
+  /// frame allows). The prior supplies the directions the features leave open (the features,
+  /// say, the distance to a light switch the camera walks up to; the prior the roll). Kept,
+  /// flagged `prior_fused`, with at least this many inliers, the deviation from the
+  /// prediction within the prior's 99 % bound (chi2, 6 dof) and the relaxed gate's, and the
+  /// combined standard deviations within the relaxed gate's; the motion model then carries
+  /// that estimate with its covariance, so a run of such frames is only as certain as its
+  /// evidence. 0: off.
+  int fused_min_inliers = 5;
+  double fused_sigma = 0.01;            ///< change of motion per axis and frame the prior allows, m
+  double fused_sigma_deg = 0.5;         ///< the same, deg
   PointDetectorOptions points;          ///< "points.*"
   PointMatchingOptions point_matching;  ///< "point_matching.*"
   LineDetectorOptions lines;            ///< "lines.*"
@@ -119,6 +134,9 @@ struct TrackerResult {
   /// The pose comes from direct alignment of the image to the last frame with a pose
   /// (TrackDirect): features were too few, the image's edges were enough.
   bool direct_aligned = false;
+  /// The pose fits the frame's few matches together with the constant-velocity prediction
+  /// (TrackFused): tracked, with the prior's share in the covariance.
+  bool prior_fused = false;
   std::string warning;                                   ///< why tracking failed, when it did
   std::vector<std::pair<std::string, double>> stage_ms;  ///< per-stage wall time
 };
@@ -157,6 +175,13 @@ class StereoTracker {
   /// direct_aligned) and tracking continues from it. False (r untouched) otherwise, or when
   /// tracker.direct.enabled is off.
   bool TrackDirect(const StereoFrame& frame, TrackerResult* r);
+
+  /// After direct alignment, the last resort: `frame` (the one Track() just returned `r` for,
+  /// lost right after a tracked frame) fitted from its frame-to-frame matches together with
+  /// the constant-velocity prediction as a prior (TrackerOptions::fused_min_inliers). When the
+  /// gates there hold, `r` becomes a tracked frame (pose_valid, prior_fused, never a keyframe)
+  /// and tracking continues from it. False (r untouched but for its stage times) otherwise.
+  bool TrackFused(const StereoFrame& frame, TrackerResult* r);
 
   /// Features of the last frame (for the debug image and the map).
   const StereoFeatures& last_features() const;
