@@ -374,8 +374,8 @@ void StereoTracker::Rescued(const SE3& T_w_c) {
   if (!T_w_c.IsFinite()) return;
   s.T_w_previous = T_w_c;
   if (s.fused_pending) {
-    // Lost right after a tracked frame: the motion model stays that frame's measured one.
-    s.velocity_cur_prev = s.fused_prior;
+    // Lost right after a tracked frame: the motion model (the prediction, turned by the
+    // frame's own rotation when it gave one) is as certain as that frame's measured motion.
     s.velocity_cov = s.fused_velocity_cov;
     s.velocity_cov_valid = true;
     s.fused_pending = false;
