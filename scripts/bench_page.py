@@ -481,7 +481,7 @@ DESIGN_DECISIONS = [
      "layouts it keeps 129 of 131 alignments. Tried and not kept: keeping the reference frame "
      "while 70 % of its pixels stay in view (normal exposure: held-out bare lost frames 139 "
      "-> 169, doorway textured seed 3 0.09 -> 1.53 %)."),
-    ("A few matches with the motion model as a prior (`tracker.fused_*`)",
+    ("A few matches with the motion model as a prior (`tracker.fused_*`), off by default",
      "Walking up to a bare wall, the view holds a light switch: 6-10 point matches within a few "
      "centimetres, which alone trade a turn against a sideways step (too uncertain for any "
      "gate), so those frames were lost and the walk's deceleration was never measured. Right "
@@ -508,7 +508,9 @@ DESIGN_DECISIONS = [
      "the fused result within the prior's 1 cm and 0.5 deg: nothing fused on the walls; after a "
      "local-map rescue, resetting the model to the last measured motion (dropping the rotation "
      "the lost frame measured): held-out textured doorway seed 3 under low thresholds 0.008 -> "
-     "0.031 m."),
+     "0.031 m. Off by default: with it on, the live loop-closure test (rostest loop_closure) "
+     "saw the loop's correction reach ~odom instead of map -> odom in 2 of 4 runs, against 0 of "
+     "4 with it off; not yet understood."),
     ("KITTI clip: the disparity offset is measured, not assumed (`--doffs 1.28`)",
      "`pl_slam_check_stereo` finds the clip's right principal point 1.28 +- 0.31 px from the "
      "images alone, as the ground-truth poses imply (1.29-1.32 px). With it VO drift goes from "

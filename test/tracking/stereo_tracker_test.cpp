@@ -458,7 +458,7 @@ TEST(StereoTrackerTest, AFewClusteredMatchesWithTheMotionModelKeepTheWalkToABare
     }
     return out;
   };
-  const Run with = run(TrackerOptions().fused_min_inliers);
+  const Run with = run(5);
   const Run without = run(0);
   std::cout << "features alone: " << without.lost << " lost, end error " << without.error
             << " m; with the motion model as a prior: " << with.lost << " lost (" << with.fused
