@@ -295,6 +295,25 @@ struct StereoTracker::Impl {
     KeepForDirect(T_w);
   }
 
+  /// A frame Track() lost, given a pose by a fallback (TrackDirect, TrackFused): it becomes
+  /// the next frame's reference at T_w (when its features already are, Track), tracking
+  /// resumes from it, and `r` reports it tracked with the increment and its covariance; the
+  /// caller sets its own flag.
+  void MarkTracked(const SE3& T_w, const SE3& T_prev_cur, const Matrix6d& cov_prev_cur,
+                   TrackerResult* r) {
+    if (frames_since_previous == 0) T_w_previous = T_w;
+    ResumeAt(T_w);
+    r->pose_valid = true;
+    r->state = TrackerState::kTracking;
+    r->T_w_c = T_w;
+    r->T_prev_cur = T_prev_cur;
+    r->covariance_prev_cur = cov_prev_cur;
+    r->predicted = false;
+    r->rotation_measured = false;
+    r->is_keyframe = false;
+    r->warning.clear();
+  }
+
   /// Fewest inliers any gate keeps: relaxed_min_inliers when the relaxed gate is on.
   int RelaxedFloor() const {
     return options.relaxed_min_inliers > 0
@@ -690,21 +709,10 @@ bool StereoTracker::TrackFused(const StereoFrame& frame, TrackerResult* r) {
   s.velocity_cov = est.covariance;
   s.velocity_valid = true;
   s.velocity_cov_valid = true;
-  // This frame's features, when it had any, are the next frame's reference already (Track).
-  if (s.frames_since_previous == 0) s.T_w_previous = T_w_c;
-  s.ResumeAt(T_w_c);
-  r->pose_valid = true;
-  r->state = TrackerState::kTracking;
-  r->T_w_c = T_w_c;
-  r->T_prev_cur = T_prev_cur;
-  r->covariance_prev_cur = est.covariance_prev_cur;
+  s.MarkTracked(T_w_c, T_prev_cur, est.covariance_prev_cur, r);
   r->point_inliers = est.point_inliers;
   r->line_inliers = est.line_inliers;
-  r->predicted = false;
-  r->rotation_measured = false;
   r->prior_fused = true;
-  r->is_keyframe = false;
-  r->warning.clear();
   return true;
 }
 
@@ -751,19 +759,8 @@ bool StereoTracker::TrackDirect(const StereoFrame& frame, TrackerResult* r) {
     s.velocity_cur_prev = T_prev_cur.inverse();
     s.velocity_valid = true;
   }
-  // This frame's features, when it had any, are the next frame's reference already (Track).
-  if (s.frames_since_previous == 0) s.T_w_previous = T_w_c;
-  s.ResumeAt(T_w_c);
-  r->pose_valid = true;
-  r->state = TrackerState::kTracking;
-  r->T_w_c = T_w_c;
-  r->T_prev_cur = T_prev_cur;
-  r->covariance_prev_cur = cov_ref_cur;
-  r->predicted = false;
-  r->rotation_measured = false;
+  s.MarkTracked(T_w_c, T_prev_cur, cov_ref_cur, r);
   r->direct_aligned = true;
-  r->is_keyframe = false;
-  r->warning.clear();
   return true;
 }
 

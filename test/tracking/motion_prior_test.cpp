@@ -10,24 +10,12 @@
 #include <gtest/gtest.h>
 
 #include "pl_slam/tracking/motion_estimator.h"
+#include "test_util/cameras.h"
 
 namespace pl_slam {
 namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
-
-// A 752x480 camera with a 0.11 m baseline (EuRoC-like).
-StereoCamera Camera() {
-  StereoCamera cam;
-  cam.fx = 450.0;
-  cam.fy = 450.0;
-  cam.cx = 376.0;
-  cam.cy = 240.0;
-  cam.baseline = 0.11;
-  cam.width = 752;
-  cam.height = 480;
-  return cam;
-}
 
 bool Finite(const MotionEstimate& e) {
   return e.T_cur_prev.IsFinite() && e.covariance.allFinite() && e.covariance_prev_cur.allFinite();
@@ -41,7 +29,7 @@ bool Finite(const MotionEstimate& e) {
 // prior's; at 0.3 px the corners are still weighed at prior_min_sigma_px (1 px), so the
 // covariance is conservative, never optimistic.
 TEST(MotionEstimator, APriorHoldsWhatAFewClusteredFeaturesLeaveOpen) {
-  const StereoCamera cam = Camera();
+  const StereoCamera cam = testing_util::EurocSizedCamera();
   const SE3 T_true(ExpSO3(0.4 * kDeg * Eigen::Vector3d(0.3, 1.0, 0.1).normalized()),
                    Eigen::Vector3d(0.004, -0.003, -0.05));
   std::vector<Eigen::Vector3d> corners;
