@@ -291,6 +291,9 @@ void InsertKeyframe(const Context& ctx, KeyframeInput* input) {
   kf->frame_index = input->frame_index;
   kf->stamp_s = input->stamp_s;
   kf->T_w_c = input->T_w_c;
+  SE3 T_w_anchor_now;
+  if (input->anchor != kNoId && map.KeyframePose(input->anchor, &T_w_anchor_now))
+    kf->T_w_c = T_w_anchor_now * input->T_w_anchor.inverse() * input->T_w_c;
   kf->features = std::move(input->features);
 
   PreviousKeyframe prev;

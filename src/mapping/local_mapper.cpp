@@ -71,6 +71,7 @@ struct LocalMapper::Impl {
   /// Keyframes until the follow-up global BA of the last correction; -1 when none is due.
   int followup_countdown = -1;
   std::atomic<int> corrections{0};
+  SE3 last_correction;  // of the newest keyframe at the last loop correction (under `mutex`)
   // Global bundle adjustment. The job and `global_ba_running` belong to the mapping thread;
   // the helper thread only solves the job. `global_ba_pending` (under `mutex`) tells Flush()
   // and Clear() that a result is still to be merged or discarded.
@@ -87,7 +88,12 @@ struct LocalMapper::Impl {
     LoopDetection detection;
     while (closer->TakeDetection(&detection)) {
       const auto t0 = std::chrono::steady_clock::now();
-      if (mapping::CorrectLoop(ctx, detection, pose_graph, loop_edge_weight)) {
+      SE3 newest;
+      if (mapping::CorrectLoop(ctx, detection, pose_graph, loop_edge_weight, &newest)) {
+        {
+          std::lock_guard<std::mutex> lock(mutex);
+          last_correction = newest;
+        }
         closer->OnCorrected(
             std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
                 .count());
@@ -320,6 +326,7 @@ void LocalMapper::Clear() {
       lock, [this] { return impl_->stop || (!impl_->busy && !impl_->global_ba_pending); });
   // Threaded: the mapping thread is idle and needs the mutex to go on; else this is its thread.
   impl_->followup_countdown = -1;
+  impl_->last_correction = SE3();
   impl_->line_tracks.clear();
   impl_->previous_image = mapping::PreviousImage();
 }
@@ -335,6 +342,11 @@ void LocalMapper::SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& opti
 }
 
 int LocalMapper::loop_corrections() const { return impl_->corrections.load(); }
+
+SE3 LocalMapper::last_loop_correction() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->last_correction;
+}
 
 MappingStats LocalMapper::stats() const {
   std::lock_guard<std::mutex> lock(impl_->mutex);

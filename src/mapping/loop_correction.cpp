@@ -1,6 +1,7 @@
 // Loop correction, run by local mapping between two keyframes (no other writer then): pose-graph
 // optimisation over the essential graph plus the new loop edge, landmarks moved with their
 // reference keyframes, duplicated landmarks on both sides of the loop fused.
+#include <cmath>
 #include <unordered_map>
 
 #include "mapping_steps.h"
@@ -56,7 +57,7 @@ void FuseAcrossLoop(const Context& ctx, KeyframeId query, KeyframeId candidate) 
 }  // namespace
 
 bool CorrectLoop(const Context& ctx, const LoopDetection& loop, const PoseGraphOptions& options,
-                 double loop_edge_weight) {
+                 double loop_edge_weight, SE3* newest_correction) {
   Map& map = *ctx.map;
   std::vector<KeyframeId> ids;
   std::unordered_map<KeyframeId, int> index;
@@ -131,6 +132,13 @@ bool CorrectLoop(const Context& ctx, const LoopDetection& loop, const PoseGraphO
         l->Q_w = T * l->Q_w;
       }
     }
+    // The newest keyframe's correction: what the camera moves by (map -> odom takes it).
+    const SE3& newest = correction[ids.back()];
+    if (newest_correction) *newest_correction = newest;
+    PL_LOG_INFO("loop corrected: keyframe " << loop.query << " joined keyframe " << loop.candidate
+                                            << "; the newest keyframe moved "
+                                            << newest.translation().norm() * 1000.0 << " mm, "
+                                            << newest.RotationAngle() * 180.0 / M_PI << " deg");
     map.KeyframeLocked(loop.query)->loop_edges.insert(loop.candidate);
     map.KeyframeLocked(loop.candidate)->loop_edges.insert(loop.query);
     map.TouchLocked();

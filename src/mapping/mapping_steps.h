@@ -112,8 +112,9 @@ int Cull(const Context& ctx, KeyframeId id);
 
 /// Corrects the map after a verified loop (pose graph over the essential graph, landmarks
 /// moved with their reference keyframes, duplicates fused); false when it could not.
+/// `newest_correction` (may be null): T_w_new * T_w_old^-1 of the newest keyframe.
 bool CorrectLoop(const Context& ctx, const LoopDetection& loop, const PoseGraphOptions& options,
-                 double loop_edge_weight);
+                 double loop_edge_weight, SE3* newest_correction = nullptr);
 
 /// 1 / sigma of a point observation at `octave`.
 inline double PointSqrtInfo(const Context& ctx, int octave) {

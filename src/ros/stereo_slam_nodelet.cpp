@@ -418,6 +418,7 @@ void StereoSlamNodelet::ProcessOne(const StereoFrame& frame, const std_msgs::Hea
     loops_rebase_ = false;
   }
   result.loops -= loops_offset_;
+  if (result.loops <= 0) result.loop_correction_m = result.loop_correction_deg = 0.0;
   if (!T_base_cam_) {
     const std::string cam_frame =
         options_.camera_frame.empty() ? header.frame_id : options_.camera_frame;

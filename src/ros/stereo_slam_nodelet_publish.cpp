@@ -138,6 +138,8 @@ void StereoSlamNodelet::Publish(const FrameResult& result, const std_msgs::Heade
   status.map_point_inliers = static_cast<uint32_t>(result.map_point_inliers);
   status.map_line_inliers = static_cast<uint32_t>(result.map_line_inliers);
   status.loops = static_cast<uint32_t>(result.loops);
+  status.loop_correction_m = static_cast<float>(result.loop_correction_m);
+  status.loop_correction_deg = static_cast<float>(result.loop_correction_deg);
   status.map_tracked = result.map_tracked;
   status.direct_aligned = result.direct_aligned;
   status.prior_fused = result.prior_fused;

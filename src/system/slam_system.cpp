@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <chrono>
+#include <deque>
 #include <mutex>
 
 #include "pl_slam/map/map_io.h"
@@ -68,10 +69,83 @@ struct SlamSystem::Impl {
   MappingFrontEnd front_end;
   KeyframeId next_keyframe_id = 0;
   KeyframeId reference = kNoId;  // last keyframe handed to mapping
-  SE3 T_w_reference;             // its pose when handed over
-  LocalMap local_map;            // cached copy, refreshed when the map changes
-  OdometryChain odometry;        // REP-105 odom: tracked motion only, covariance over time
-  int loops_seen = 0;            // loop corrections already reflected in the odometry covariance
+  SE3 T_w_reference;             // its pose as tracking holds it (see FollowMap)
+  // Tracking follows what mapping does to the map through the anchor: the newest keyframe it
+  // handed over that is already in the map, with its map pose when last looked at. Keyframes
+  // handed over but still queued are not in the map yet and cannot show a correction.
+  KeyframeId anchor = kNoId;
+  SE3 T_w_anchor;
+  std::deque<std::pair<KeyframeId, SE3>> pending;  // queued keyframes, poses as tracking holds them
+
+  // A correction of the map (bundle adjustment, loop closure) moves everything tracking holds.
+  void ApplyCorrection(const SE3& C) {
+    if (C.matrix().isApprox(Eigen::Matrix4d::Identity(), 1e-12)) return;
+    T_w_c = C * T_w_c;
+    T_w_reference = C * T_w_reference;
+    for (auto& p : pending) p.second = C * p.second;
+    tracker->CorrectPose(T_w_c);
+  }
+
+  // Re-anchors to the map: when mapping moved the anchor, the camera moves with it, so tracking
+  // continues in the corrected map; a queued keyframe that reached the map (placed there
+  // relative to the anchor, then refined) becomes the anchor.
+  void FollowMap() {
+    SE3 P;
+    if (anchor != kNoId && map->KeyframePose(anchor, &P)) {
+      ApplyCorrection(P * T_w_anchor.inverse());
+      T_w_anchor = P;
+    }
+    for (std::size_t i = pending.size(); i-- > 0;) {
+      if (!map->KeyframePose(pending[i].first, &P)) continue;
+      ApplyCorrection(P * pending[i].second.inverse());
+      anchor = pending[i].first;
+      T_w_anchor = P;
+      pending.erase(pending.begin(), pending.begin() + static_cast<std::ptrdiff_t>(i) + 1);
+      break;
+    }
+  }
+
+  // This frame's start, after FollowMap: what tracking does from there on is odometry.
+  SE3 T_w_start;
+  KeyframeId anchor_start = kNoId;
+  SE3 T_w_anchor_start;
+  bool map_moved = false;  // SettleMapMove's answer for this frame
+
+  // Whether mapping moved the anchor while this frame was tracked. It then depends on the map
+  // copy local-map tracking used whether the pose came out in the corrected map or in the old
+  // one (`T_w_old`: the pose tracked from the frame's start); tracking carries on in the one
+  // the pose is in, so that the next FollowMap does not apply the correction twice.
+  bool SettleMapMove(const SE3& T_w_old) {
+    SE3 P;
+    if (anchor_start == kNoId || !map->KeyframePose(anchor_start, &P) ||
+        P.matrix().isApprox(T_w_anchor_start.matrix(), 1e-12))
+      return false;
+    if (anchor != anchor_start) return true;  // relocalised: tied to the map as it is now
+    const SE3 C = P * T_w_anchor_start.inverse();
+    auto apart = [](const SE3& a, const SE3& b) {
+      const SE3 d = a.inverse() * b;
+      return d.translation().norm() + 0.1 * d.RotationAngle();  // 1 deg ~ 1.7 mm
+    };
+    if (apart(T_w_c, C * T_w_old) < apart(T_w_c, T_w_old)) {
+      T_w_reference = C * T_w_reference;
+      for (auto& p : pending) p.second = C * p.second;
+      T_w_anchor = P;
+    }
+    return true;
+  }
+
+  // Tracking is tied to `id`, a keyframe in the map (relocalisation) or none (reset).
+  void AnchorAt(KeyframeId id) {
+    reference = anchor = kNoId;
+    pending.clear();
+    if (id != kNoId && map->KeyframePose(id, &T_w_anchor)) {
+      reference = anchor = id;
+      T_w_reference = T_w_anchor;
+    }
+  }
+  LocalMap local_map;      // cached copy, refreshed when the map changes
+  OdometryChain odometry;  // REP-105 odom: tracked motion only, covariance over time
+  int loops_seen = 0;      // loop corrections already reflected in the odometry covariance
   std::atomic<bool> localization_only{false};
   bool relocalize_first = false;      // a loaded map: the first pose must come from relocalisation
   mutable std::mutex features_mutex;  // guards last_features (read by the ROS layer)
@@ -155,7 +229,7 @@ void SlamSystem::LoadMap(const std::string& path) {
   }
   if (s.loop) s.loop->IndexMap();
   s.local_map = LocalMap();
-  s.reference = kNoId;
+  s.AnchorAt(kNoId);
   s.tracker->Reset();
   s.state = TrackingState::kNotInitialized;
   s.relocalize_first = true;
@@ -188,7 +262,7 @@ void SlamSystem::Reset() {
   if (s.loop) s.loop->Clear();
   s.map->Clear();
   s.local_map = LocalMap();
-  s.reference = kNoId;
+  s.AnchorAt(kNoId);
   s.tracker->Reset();
   s.state = TrackingState::kNotInitialized;
   s.T_w_c = SE3();
@@ -237,21 +311,13 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
     return result;
   }
 
-  // Re-anchor to the reference keyframe: when bundle adjustment or a loop correction moved it,
-  // the camera moves with it, so tracking continues in the corrected map.
-  if (s.mapper && s.reference != kNoId) {
-    SE3 T_w_ref;
-    if (s.map->KeyframePose(s.reference, &T_w_ref) &&
-        !T_w_ref.matrix().isApprox(s.T_w_reference.matrix(), 1e-12)) {
-      s.T_w_c = T_w_ref * s.T_w_reference.inverse() * s.T_w_c;
-      s.T_w_reference = T_w_ref;
-      s.tracker->CorrectPose(s.T_w_c);
-    }
-  }
+  if (s.mapper) s.FollowMap();
   // What tracking does to the pose from here on is odometry; the corrections above are not.
   const SE3 T_w_before = s.T_w_c;
-  const KeyframeId reference_before = s.reference;
-  const SE3 T_w_reference_before = s.T_w_reference;
+  s.T_w_start = s.T_w_c;
+  s.anchor_start = s.anchor;
+  s.T_w_anchor_start = s.T_w_anchor;
+  s.map_moved = false;
 
   // Keyframes whenever local mapping can take them (tracker.keyframes.idle_min_frames); the
   // mapper's lock is only taken when that rule is on.
@@ -347,7 +413,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
       r.is_keyframe = false;
       r.warning.clear();
       result.relocalized = true;
-      if (s.map->KeyframePose(kf, &s.T_w_reference)) s.reference = kf;
+      s.AnchorAt(kf);
       s.relocalize_first = false;
       PL_LOG_INFO("frame " << frame.index << ": relocalised against keyframe " << kf);
     }
@@ -384,13 +450,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   // A bundle adjustment or loop correction the mapping thread applied while this frame was
   // tracked may have reached the local-map refinement: the pose difference would then carry
   // part of a correction, so the odometry takes the tracker's own increment instead.
-  bool map_moved = false;
-  if (s.mapper && reference_before != kNoId) {
-    SE3 T_w_ref;
-    map_moved = s.map->KeyframePose(reference_before, &T_w_ref) &&
-                !T_w_ref.matrix().isApprox(T_w_reference_before.matrix(), 1e-12);
-  }
-  AdvanceOdometry(T_w_before, r, map_moved, &result);
+  AdvanceOdometry(T_w_before, r, s.map_moved, &result);
   if (result.pose_valid) {
     std::lock_guard<std::mutex> lock(s.trajectory_mutex);
     FrameRecord rec;
@@ -460,6 +520,7 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
       }
     }
   }
+  s.map_moved = s.SettleMapMove(s.T_w_start * r.T_prev_cur);
   result->stage_ms.emplace_back(
       "local_map", std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
   if (result->is_keyframe && tracked.success && mo.skip_covered_keyframes > 0.0 &&
@@ -479,6 +540,8 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
     kf.frame_index = frame.index;
     kf.stamp_s = frame.stamp_s();
     kf.T_w_c = result->T_w_c;
+    kf.anchor = s.anchor;
+    kf.T_w_anchor = s.T_w_anchor;
     kf.features = s.tracker->last_features();
     if (s.options.mapping.align_points) kf.left_image = frame.left.clone();
     if (tracked.success) {
@@ -489,11 +552,17 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
     if (s.mapper->Submit(std::move(kf))) {
       s.reference = id;
       s.T_w_reference = result->T_w_c;
+      s.pending.emplace_back(id, result->T_w_c);
     } else {
       PL_LOG_DEBUG("frame " << frame.index << ": mapping busy, keyframe dropped");
     }
   }
   result->loops = s.mapper->loop_corrections();
+  if (result->loops > 0) {
+    const SE3 c = s.mapper->last_loop_correction();
+    result->loop_correction_m = c.translation().norm();
+    result->loop_correction_deg = c.RotationAngle() * 180.0 / M_PI;
+  }
   const MapCounts counts = s.map->counts();
   result->keyframes = static_cast<int>(counts.keyframes);
   result->map_points = static_cast<int>(counts.points);

@@ -4,7 +4,7 @@
 // until a loop has closed and ~frames_after_loop more frames have been processed. Then it
 // checks, against what the nodelet published:
 //   - ~odom stays continuous across the loop closure (no step over 5x the median step near
-//     it) while map -> odom on /tf takes the correction (REP-105);
+//     it) while map -> odom on /tf takes the correction the status reports (REP-105);
 //   - ~odom's pose covariance grows with the distance walked and falls back at the loop;
 //   - ~map_cloud is the map (its point count is the status' point_landmarks once the map is
 //     still) in map_frame (the room's floor and ceiling bound it), and the loop correction
@@ -222,27 +222,36 @@ TEST(LoopClosure, OdomStaysContinuousAndMapToOdomTakesTheCorrection) {
   std::vector<double> jerks;  // second differences before the loop, for the report
   for (std::size_t i = 1; i + 10 < L; ++i)
     jerks.push_back((odom(i + 1) - 2 * odom(i) + odom(i - 1)).norm());
-  // map -> odom across the loop, and its frame-to-frame changes before it: bundle adjustment
-  // moving the reference keyframe moves it a little now and then, on a frame or two by as much
-  // as the room's loop correction itself (5-10 mm on this map), so the loop is compared with
-  // what 19 in 20 frames change it by.
+  // map -> odom across the loop, as the move of the camera's map position it implies (the
+  // camera held at its odom position at the loop), and its frame-to-frame changes before it:
+  // bundle adjustment moving the anchor keyframe moves it a little now and then.
   const Eigen::Isometry3d before = map_odom(L - 3),
                           after = map_odom(std::min(sent.size() - 1, L + 3));
-  const double jump = (after.translation() - before.translation()).norm();
+  const double jump = (after * odom(L) - before * odom(L)).norm();
   const double jump_deg = AngleOf(before.rotation().transpose() * after.rotation()) * 180 / M_PI;
   std::vector<double> changes;
   for (std::size_t i = 1; i + 10 < L; ++i)
-    changes.push_back((map_odom(i).translation() - map_odom(i - 1).translation()).norm());
+    changes.push_back((map_odom(i) * odom(i) - map_odom(i - 1) * odom(i)).norm());
   std::sort(changes.begin(), changes.end());
   const double usual_change = changes.empty() ? 0.0 : changes[changes.size() * 95 / 100];
   const double largest_change = changes.empty() ? 0.0 : changes.back();
+  // What the loop correction did to the newest keyframe, as the first status after it says.
+  double reported = 0.0, reported_deg = 0.0;
+  for (const pl_slam::TrackingStatus& s : rec->statuses) {
+    if (s.loops < 1) continue;
+    reported = s.loop_correction_m;
+    reported_deg = s.loop_correction_deg;
+    break;
+  }
   std::cout << "[loop_closure] odom step median " << median * 100 << " cm, max within 5 frames "
             << "of the loop " << max_step * 100 << " cm (" << max_step / median
             << "x the median); odom second difference there " << max_jerk * 1000
             << " mm (before the loop: median " << Median(jerks) * 1000 << " mm); map -> odom "
-            << "across the loop " << jump * 100 << " cm, " << jump_deg << " deg (frame-to-frame "
-            << "changes before it: 95th percentile " << usual_change * 100 << " cm, largest "
-            << largest_change * 100 << " cm)" << std::endl;
+            << "across the loop moves the camera " << jump * 1000 << " mm, " << jump_deg
+            << " deg (frame-to-frame changes before it: 95th percentile " << usual_change * 1000
+            << " mm, largest " << largest_change * 1000 << " mm); the status reports a loop "
+            << "correction of " << reported * 1000 << " mm, " << reported_deg << " deg"
+            << std::endl;
   EXPECT_LE(max_step, 5.0 * median) << "~odom jumps at the loop closure (REP-105: the odom "
                                        "frame is continuous; corrections go into map -> odom)";
   // A correction of ~1 cm hides in a 2.7 cm step, not in the second difference (~1 mm on a
@@ -251,9 +260,17 @@ TEST(LoopClosure, OdomStaysContinuousAndMapToOdomTakesTheCorrection) {
   // map-refined one gives up to ~5 mm.
   EXPECT_LE(max_jerk, 10.0 * Median(jerks))
       << "~odom's motion changes abruptly at the loop closure (a correction leaked into odom)";
-  EXPECT_GT(jump, 0.003) << "map -> odom did not take the loop correction";
-  EXPECT_GT(jump, usual_change)
-      << "map -> odom changed no more at the loop than between two frames before it usually does";
+  // map -> odom takes the correction: the camera's map position moves about as far as the
+  // newest keyframe did. Measured 1.45-1.6x as far: the global bundle adjustment that follows
+  // the correction lands within the six frames compared. A correction that leaked into odom
+  // leaves map -> odom where it was (on this walk it did so with the whole correction).
+  EXPECT_GT(reported, 0.0) << "the status reports no loop correction";
+  EXPECT_GT(jump, 0.5 * reported)
+      << "map -> odom moved the camera much less than the loop correction moved the newest "
+         "keyframe: the correction went elsewhere (into ~odom?)";
+  EXPECT_LT(jump, 2.0 * reported + 2.0 * usual_change)
+      << "map -> odom moved the camera much more than the loop correction moved the newest "
+         "keyframe";
 }
 
 TEST(LoopClosure, OdomCovarianceGrowsWithDistanceAndFallsAtTheLoop) {

