@@ -77,12 +77,16 @@ struct SlamSystem::Impl {
   SE3 T_w_anchor;
   std::deque<std::pair<KeyframeId, SE3>> pending;  // queued keyframes, poses as tracking holds them
 
-  // A correction of the map (bundle adjustment, loop closure) moves everything tracking holds.
+  // A correction of the map (bundle adjustment, loop closure) moves the keyframe poses
+  // tracking holds; ApplyCorrection moves the camera too.
+  void MoveHeldKeyframes(const SE3& C) {
+    T_w_reference = C * T_w_reference;
+    for (auto& p : pending) p.second = C * p.second;
+  }
   void ApplyCorrection(const SE3& C) {
     if (C.matrix().isApprox(Eigen::Matrix4d::Identity(), 1e-12)) return;
     T_w_c = C * T_w_c;
-    T_w_reference = C * T_w_reference;
-    for (auto& p : pending) p.second = C * p.second;
+    MoveHeldKeyframes(C);
     tracker->CorrectPose(T_w_c);
   }
 
@@ -127,8 +131,7 @@ struct SlamSystem::Impl {
       return d.translation().norm() + 0.1 * d.RotationAngle();  // 1 deg ~ 1.7 mm
     };
     if (apart(T_w_c, C * T_w_old) < apart(T_w_c, T_w_old)) {
-      T_w_reference = C * T_w_reference;
-      for (auto& p : pending) p.second = C * p.second;
+      MoveHeldKeyframes(C);
       T_w_anchor = P;
     }
     return true;
@@ -146,6 +149,8 @@ struct SlamSystem::Impl {
   LocalMap local_map;      // cached copy, refreshed when the map changes
   OdometryChain odometry;  // REP-105 odom: tracked motion only, covariance over time
   int loops_seen = 0;      // loop corrections already reflected in the odometry covariance
+  int loops_read = 0;      // loop corrections whose size below was read from the mapper
+  double loop_correction_m = 0.0, loop_correction_deg = 0.0;  // the last one's
   std::atomic<bool> localization_only{false};
   bool relocalize_first = false;      // a loaded map: the first pose must come from relocalisation
   mutable std::mutex features_mutex;  // guards last_features (read by the ROS layer)
@@ -267,7 +272,8 @@ void SlamSystem::Reset() {
   s.state = TrackingState::kNotInitialized;
   s.T_w_c = SE3();
   s.odometry.Reset();
-  s.loops_seen = 0;
+  s.loops_seen = s.loops_read = 0;
+  s.loop_correction_m = s.loop_correction_deg = 0.0;
   std::lock_guard<std::mutex> lock(s.trajectory_mutex);
   s.records.clear();
 }
@@ -313,7 +319,6 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
 
   if (s.mapper) s.FollowMap();
   // What tracking does to the pose from here on is odometry; the corrections above are not.
-  const SE3 T_w_before = s.T_w_c;
   s.T_w_start = s.T_w_c;
   s.anchor_start = s.anchor;
   s.T_w_anchor_start = s.T_w_anchor;
@@ -450,7 +455,7 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   // A bundle adjustment or loop correction the mapping thread applied while this frame was
   // tracked may have reached the local-map refinement: the pose difference would then carry
   // part of a correction, so the odometry takes the tracker's own increment instead.
-  AdvanceOdometry(T_w_before, r, s.map_moved, &result);
+  AdvanceOdometry(s.T_w_start, r, s.map_moved, &result);
   if (result.pose_valid) {
     std::lock_guard<std::mutex> lock(s.trajectory_mutex);
     FrameRecord rec;
@@ -558,11 +563,14 @@ void SlamSystem::TrackAndMap(const StereoFrame& frame, const TrackerResult& r,
     }
   }
   result->loops = s.mapper->loop_corrections();
-  if (result->loops > 0) {
+  if (result->loops != s.loops_read) {  // the mapper sets the size before it counts the loop
     const SE3 c = s.mapper->last_loop_correction();
-    result->loop_correction_m = c.translation().norm();
-    result->loop_correction_deg = c.RotationAngle() * 180.0 / M_PI;
+    s.loop_correction_m = c.translation().norm();
+    s.loop_correction_deg = c.RotationAngle() * 180.0 / M_PI;
+    s.loops_read = result->loops;
   }
+  result->loop_correction_m = s.loop_correction_m;
+  result->loop_correction_deg = s.loop_correction_deg;
   const MapCounts counts = s.map->counts();
   result->keyframes = static_cast<int>(counts.keyframes);
   result->map_points = static_cast<int>(counts.points);
