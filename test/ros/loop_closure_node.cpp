@@ -261,7 +261,7 @@ TEST(LoopClosure, OdomStaysContinuousAndMapToOdomTakesTheCorrection) {
   EXPECT_LE(max_jerk, 10.0 * Median(jerks))
       << "~odom's motion changes abruptly at the loop closure (a correction leaked into odom)";
   // map -> odom takes the correction: the camera's map position moves about as far as the
-  // newest keyframe did. Measured 0.95-1.6x as far: the global bundle adjustment that follows
+  // newest keyframe did. Measured 0.95-1.65x as far: the global bundle adjustment that follows
   // the correction often lands within the six frames compared. A correction that leaked into odom
   // leaves map -> odom where it was (on this walk it did so with the whole correction).
   EXPECT_GT(reported, 0.0) << "the status reports no loop correction";
