@@ -963,8 +963,11 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("`--family lowtex`: six generated low-texture layouts (four for tuning, two held out: "
         "for checking, never for tuning), each textured and bare (no posters, floor tiles, "
         "ceiling grid, lights or wall seams), three world seeds; points only against points + "
-        "lines, mapping in line. Lost frames: frames without a pose; ATE over the frames with "
-        "one (m and % of the path); rotation drift from RPE per metre over the longest segment.")
+        "lines, mapping in line. Lost frames: frames without a pose; of them, those with fewer "
+        "than %d features with depth (points and segments with a stereo match, noise corners "
+        "included: tracker.relaxed_min_inliers, the fewest inliers a counting gate accepts) held "
+        "too little for any such gate. ATE over the frames with a pose (m and %% of the path); "
+        "rotation drift from RPE per metre over the longest segment." % bo.FEW_WITH_DEPTH)
     add("")
     add("Summary (medians over runs; failed runs count as lost frames, not in ATE medians):")
     add("")

@@ -18,7 +18,8 @@ Scene families (--family lowtex, --family street): every layout of the family x 
 with pl_slam_generate on first use, run with each mode in --modes, mapping in line
 (deterministic; --threaded to run it in its own thread).
 One row per run: frames, frames with a pose, lost frames (frames.txt stamps without a
-trajectory.tum pose) and the longest run of them, ground-truth path length, SE(3)-aligned ATE
+trajectory.tum pose), those of them with fewer than 8 features with depth (timing.csv), the
+longest run of them, ground-truth path length, SE(3)-aligned ATE
 RMSE over the frames with a pose (m and % of the path), translation and rotation drift (RPE
 per metre over the longest segment evaluated), then median ATE and lost frames per mode, tuning and held-out layouts
 apart (held-out layouts are for checking, never for tuning):
@@ -241,6 +242,25 @@ def gt_path_length(path):
     return length
 
 
+# A lost frame with fewer features with depth than this (tracker.relaxed_min_inliers by default,
+# the fewest inliers any feature-counting gate accepts) held too little for a gate to pass.
+FEW_WITH_DEPTH = 8
+
+
+def lost_with_few_features(run_dir, frames, posed):
+    """Lost frames whose timing.csv row has fewer than FEW_WITH_DEPTH features with depth
+    (points_stereo + lines_stereo); None without one row per frame."""
+    path = os.path.join(run_dir, "timing.csv")
+    if not os.path.isfile(path):
+        return None
+    with open(path) as f:
+        rows = list(csv.DictReader(f))
+    if len(rows) != len(frames):
+        return None
+    return sum(1 for t, r in zip(frames, rows) if t not in posed and
+               int(r["points_stereo"]) + int(r["lines_stereo"]) < FEW_WITH_DEPTH)
+
+
 def family_run(layout, variant, seed, mode, data, out, overrides, evaluate_args=()):
     """One pl_slam_offline run of a family sequence; the row of the family table."""
     name = "%s_%s_s%d" % (layout, variant, seed)
@@ -263,6 +283,7 @@ def family_run(layout, variant, seed, mode, data, out, overrides, evaluate_args=
     row["frames"] = len(frames)
     row["tracked"] = sum(1 for t in frames if t in posed)
     row["lost"] = row["frames"] - row["tracked"]
+    row["lost_few"] = lost_with_few_features(d, frames, posed)
     gap = longest = 0
     for t in frames:
         gap = 0 if t in posed else gap + 1
@@ -382,20 +403,23 @@ def family_tables(rows, layouts, variants, modes, args, overrides):
         args.family, ", ".join("%s (%s)" % lr for lr in layouts), ",".join(variants), args.seeds,
         ",".join(modes), overrides or "defaults", args.generate_args or "scene defaults")
     lines = []
-    lines.append("| set | layout | variant | seed | mode | frames | tracked | lost | longest gap | path m | ATE m | ATE % path | drift % | rot drift deg/m |")
-    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    lines.append("| set | layout | variant | seed | mode | frames | tracked | lost | of them with < %d features with depth | longest gap | path m | ATE m | ATE %% path | drift %% | rot drift deg/m |" % FEW_WITH_DEPTH)
+    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+
+    def few(r):
+        return "-" if r.get("lost_few") is None else str(r["lost_few"])
     for r in sorted(rows, key=lambda r: (r["set"] != "tuning", r["layout"], variants.index(r["variant"]), r["seed"], r["mode"])):
         if r["failed"]:
-            lines.append("| %s | %s | %s | %d | %s | %d | %d | %d | %d | - | FAILED: %s | | | |" % (
+            lines.append("| %s | %s | %s | %d | %s | %d | %d | %d | %s | %d | - | FAILED: %s | | | |" % (
                 r["set"], r["layout"], r["variant"], r["seed"], r["mode"], r["frames"], r["tracked"],
-                r["lost"], r["gap"], r["failed"]))
+                r["lost"], few(r), r["gap"], r["failed"]))
             continue
-        lines.append("| %s | %s | %s | %d | %s | %d | %d | %d | %d | %.1f | %.3f | %.2f | %.2f | %.3f |" % (
+        lines.append("| %s | %s | %s | %d | %s | %d | %d | %d | %s | %d | %.1f | %.3f | %.2f | %.2f | %.3f |" % (
             r["set"], r["layout"], r["variant"], r["seed"], r["mode"], r["frames"], r["tracked"], r["lost"],
-            r["gap"], r["length"], r["ate"], r["ate_pct"], r["drift_pct"], r["rot_drift"]))
+            few(r), r["gap"], r["length"], r["ate"], r["ate_pct"], r["drift_pct"], r["rot_drift"]))
     per_run, lines = lines, []
-    lines.append("| set | variant | mode | runs | failed | lost frames (total) | runs with loss | median ATE m | median ATE % | median rot drift deg/m |")
-    lines.append("|---|---|---|---|---|---|---|---|---|---|")
+    lines.append("| set | variant | mode | runs | failed | lost frames (total) | of them with < %d features with depth | runs with loss | median ATE m | median ATE %% | median rot drift deg/m |" % FEW_WITH_DEPTH)
+    lines.append("|---|---|---|---|---|---|---|---|---|---|---|")
     for set_name in ("tuning", "held-out"):
         for variant in variants + ["all"]:
             for mode in modes:
@@ -404,9 +428,11 @@ def family_tables(rows, layouts, variants, modes, args, overrides):
                 if not rs:
                     continue
                 ok = [r for r in rs if not r["failed"]]
-                lines.append("| %s | %s | %s | %d | %d | %d | %d | %.3f | %.2f | %.3f |" % (
+                counted = [r["lost_few"] for r in ok if r.get("lost_few") is not None]
+                lines.append("| %s | %s | %s | %d | %d | %d | %s | %d | %.3f | %.2f | %.3f |" % (
                     set_name, variant, mode, len(rs), len(rs) - len(ok),
                     sum(r["lost"] for r in ok) + sum(r["frames"] or 0 for r in rs if r["failed"]),
+                    str(sum(counted)) if len(counted) == len(ok) else "-",
                     sum(1 for r in rs if r["lost"] > 0 or r["failed"]),
                     median([r["ate"] for r in ok]), median([r["ate_pct"] for r in ok]),
                     median([r["rot_drift"] for r in ok])))
