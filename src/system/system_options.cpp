@@ -42,6 +42,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "largest accepted keyframe refinement, m");
   t.Add("tracker.keyframe_max_correction_deg", &tr.keyframe_max_correction_deg,
         "largest accepted keyframe refinement, deg");
+  t.Add("tracker.keyframe_max_chi2", &tr.keyframe_max_chi2,
+        "largest accepted keyframe refinement, squared Mahalanobis distance from the "
+        "frame-to-frame pose under both covariances (0 = no check)");
   t.Add("tracker.max_predicted_frames", &tr.max_predicted_frames,
         "while lost the pose follows the motion model for this many frames (0 = off)");
   t.Add("tracker.lost_rotation_min_inliers", &tr.lost_rotation_min_inliers,

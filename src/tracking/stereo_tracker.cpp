@@ -533,8 +533,9 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     if (s.options.track_keyframe && s.has_keyframe) {
       t0 = Clock::now();
       const SE3 predicted = T_w_cur.inverse() * s.T_w_keyframe;  // T_cur_keyframe
-      // No consensus stage here: the prediction comes from this frame's own estimate and the
-      // refinement is refused beyond keyframe_max_correction anyway.
+      // No consensus stage here: the prediction comes from this frame's own estimate, and the
+      // refinement is refused beyond keyframe_max_correction or when the two estimates
+      // disagree beyond their uncertainty (keyframe_max_chi2).
       const Impl::Estimation kf =
           s.EstimateAgainst(s.keyframe, s.keyframe_left, cur, frame.left, &predicted, false);
       const int kf_inliers = kf.est.point_inliers + kf.est.line_inliers;
@@ -543,7 +544,11 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
           kf_inliers >= s.options.keyframe_min_inlier_ratio * f2f_inliers) {
         const SE3 refined = s.T_w_keyframe * kf.est.T_cur_prev.inverse();
         const SE3 change = T_w_cur.inverse() * refined;
+        // Both covariances are of a perturbation in the current camera's frame.
+        const Vector6d d = change.Log();
+        const double m2 = d.dot((f2f.est.covariance + kf.est.covariance).ldlt().solve(d));
         if (refined.IsFinite() &&
+            (s.options.keyframe_max_chi2 <= 0.0 || m2 <= s.options.keyframe_max_chi2) &&
             change.translation().norm() <= s.options.keyframe_max_correction &&
             change.RotationAngle() * 180.0 / M_PI <= s.options.keyframe_max_correction_deg) {
           T_w_cur = refined;

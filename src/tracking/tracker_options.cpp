@@ -44,6 +44,8 @@ std::string TrackerOptions::Validate() const {
     os << "keyframe_max_correction=" << keyframe_max_correction << " must be in (0, 100]";
   else if (!(keyframe_max_correction_deg > 0.0 && keyframe_max_correction_deg <= 180.0))
     os << "keyframe_max_correction_deg=" << keyframe_max_correction_deg << " must be in (0, 180]";
+  else if (!(keyframe_max_chi2 >= 0.0 && keyframe_max_chi2 <= 1e6))
+    os << "keyframe_max_chi2=" << keyframe_max_chi2 << " must be in [0, 1e6]";
   else if (relaxed_min_inliers < 0 || relaxed_min_inliers > 1000)
     os << "relaxed_min_inliers=" << relaxed_min_inliers << " must be in [0, 1000]";
   else if (!(relaxed_max_deviation > 0.0 && relaxed_max_deviation <= 10.0))
