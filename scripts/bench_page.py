@@ -18,7 +18,9 @@ Runs, in this order (outputs under --out, default output/bench_page):
             (--realtime, mapping and loop closing in their threads), two runs each, one at a time;
   family:   the low-texture family (--family lowtex defaults), then again rendered dim and
             bright (--generate-args '--exposure dim|bright', points + lines) and with low
-            detector thresholds (STRESS, points + lines), --jobs runs at a time;
+            detector thresholds (STRESS, points + lines), --jobs runs at a time; the line
+            detectors' recall and precision against the family's structural edges
+            (scripts/bench_page_lines.py);
   street:   the street family as slam and as VO, points and points + lines, --jobs runs at a
             time; pl_slam_bench_depth's disparity bias; one live run (scripts/bench_page_street.py).
 
@@ -34,6 +36,7 @@ import platform
 import subprocess
 import textwrap
 
+import bench_page_lines
 import bench_page_street
 
 SECTIONS = ("accuracy", "speed", "family", "street")
@@ -643,7 +646,7 @@ def make_page(args, bo):
                    datetime.datetime.fromisoformat(r["t1"]), r["load"], r["seqs"], r["main"],
                    r["mode_seqs"], acc, r["speed"], r["skipped"], r["fam_header"], r["fam_runs"],
                    r["fam_summary"], out, r.get("jobs", 2), r.get("times", {}), r.get("street"),
-                   r.get("took", {}), r.get("rerun", []), r.get("exposure"))
+                   r.get("took", {}), r.get("rerun", []), r.get("exposure"), r.get("lines"))
         print("wrote %s from %s" % (args.page, saved))
         return 0
     # --sections reruns only some parts; the others come from the last run's results.
@@ -764,10 +767,11 @@ def make_page(args, bo):
         st_args.out, st_args.modes = os.path.join(out, "family_stress"), "points_lines"
         st_args.set = ",".join(filter(None, [args.set, STRESS]))
         exposure["stress"] = bo.run_family(st_args)[0]
+        lines = bench_page_lines.run_lines(bo, out, jobs)
         took["family"] = minutes(times["family"])
     else:
         fam_header, fam_runs, fam_summary = prev["fam_header"], prev["fam_runs"], prev["fam_summary"]
-        exposure = prev.get("exposure")
+        exposure, lines = prev.get("exposure"), prev.get("lines")
 
     # The street family (slam and VO), disparity bias and one live run.
     if "street" in sections:
@@ -792,16 +796,18 @@ def make_page(args, bo):
                    "acc": {"|".join(k): v for k, v in acc.items()}, "speed": speed,
                    "skipped": skipped, "fam_header": fam_header, "fam_runs": fam_runs,
                    "fam_summary": fam_summary, "jobs": jobs, "times": times, "street": street,
-                   "took": took, "rerun": rerun, "exposure": exposure}, f, indent=1)
+                   "took": took, "rerun": rerun, "exposure": exposure, "lines": lines}, f,
+                  indent=1)
     write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skipped,
-               fam_header, fam_runs, fam_summary, out, jobs, times, street, took, rerun, exposure)
+               fam_header, fam_runs, fam_summary, out, jobs, times, street, took, rerun, exposure,
+               lines)
     print("wrote %s" % args.page)
     return 0
 
 
 def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skipped,
                fam_header, fam_runs, fam_summary, out, jobs, times, street=None, took=None,
-               rerun=(), exposure=None):
+               rerun=(), exposure=None, lines=None):
     # A workspace built from an export of one commit (git archive) says which in
     # src/pl_slam/.source_commit; otherwise the binaries are the working tree's.
     exported = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(bo.BIN))),
@@ -1000,6 +1006,7 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("")
     L.extend(exposure_lines(bo, exposure))
     L.extend(stress_lines(bo, exposure))
+    L.extend(bench_page_lines.lines_lines(bo, lines))
 
     # (g) the street family.
     L.extend(bench_page_street.street_lines(bo, street))
