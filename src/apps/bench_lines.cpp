@@ -44,6 +44,7 @@ constexpr char kUsage[] =
     "  --detector edge|lsd segment detector (default edge)\n"
     "  --max-lines N       lines kept per image (default: detector default)\n"
     "  --min-length R      min_length_ratio (default: detector default)\n"
+    "  --low-contrast-cell N  low_contrast_cell (default: detector default)\n"
     "  --stereo-ratio R    stereo ratio test (default: matcher default)\n"
     "  --f2f-ratio R       frame-to-frame ratio test (default: matcher default)\n"
     "  --max-distance D    largest Hamming distance (default: matcher default)\n"
@@ -587,9 +588,9 @@ void RunRecall(const std::string& scene, bool bare, const std::string& exposure,
 int Run(int argc, char** argv) {
   const pl_slam::CommandLine cl(
       argc, argv,
-      {"data", "gt", "sim", "frames", "detector", "max-lines", "min-length", "stereo-ratio",
-       "f2f-ratio", "max-distance", "min-stereo-angle", "opencv-threads", "recall", "seeds",
-       "exposure"},
+      {"data", "gt", "sim", "frames", "detector", "max-lines", "min-length", "low-contrast-cell",
+       "stereo-ratio", "f2f-ratio", "max-distance", "min-stereo-angle", "opencv-threads", "recall",
+       "seeds", "exposure"},
       {"no-merge", "help", "bare"});
   if (cl.Has("help")) {
     std::cout << kUsage;
@@ -609,6 +610,7 @@ int Run(int argc, char** argv) {
   }
   setup.det.max_lines = cl.GetInt("max-lines", setup.det.max_lines);
   setup.det.min_length_ratio = cl.GetDouble("min-length", setup.det.min_length_ratio);
+  setup.det.low_contrast_cell = cl.GetInt("low-contrast-cell", setup.det.low_contrast_cell);
   setup.det.merge_collinear = !cl.Has("no-merge");
   setup.verbose = cl.Has("verbose");
   setup.match.stereo_ratio = cl.GetDouble("stereo-ratio", setup.match.stereo_ratio);
@@ -632,11 +634,13 @@ int Run(int argc, char** argv) {
     for (std::string t; std::getline(ss, t, ',');) seeds.push_back(std::stoi(t));
     pl_slam::LineDetectorOptions single = setup.det;
     single.min_lines = 0;
+    single.low_contrast_cell = 0;
     pl_slam::LineDetectorOptions lsd = setup.det;
     lsd.detector = pl_slam::LineDetectorKind::kLsd;
     RunRecall(cl.Get("recall", ""), cl.Has("bare"), cl.Get("exposure", "normal"), seeds,
               cl.GetInt("frames", 0), setup.match,
-              {{"edge chain (default: low-contrast search below min_lines)", setup.det},
+              {{"edge chain (default: low-contrast search below min_lines and in empty cells)",
+                setup.det},
                {"edge chain, normal thresholds only", single},
                {"LSD", lsd}});
   }

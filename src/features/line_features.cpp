@@ -45,7 +45,27 @@ struct Workspace {
   std::vector<int> forward, backward, chain;
   std::vector<EdgePoint> pts;
   std::vector<RawSegment> segs;
+  std::vector<uint8_t> covered;  // low-contrast cells: crossed by a first-search segment
 };
+
+// The cells (cell x cell pixels, grid_cols per row) that the segments cross, in ws->covered;
+// true when some cell is left uncovered.
+bool MarkCoveredCells(const std::vector<RawSegment>& segs, int cell, int rows, int cols,
+                      Workspace* ws) {
+  const int gc = (cols + cell - 1) / cell, gr = (rows + cell - 1) / cell;
+  ws->covered.assign(static_cast<size_t>(gc) * gr, 0);
+  for (const RawSegment& s : segs) {
+    // Samples at most half a cell apart, both endpoints included.
+    const int n = 1 + static_cast<int>(std::ceil(2.0f * s.Length() / cell));
+    for (int k = 0; k <= n; ++k) {
+      const float t = static_cast<float>(k) / n;
+      const int x = std::clamp(static_cast<int>(s.x1 + t * (s.x2 - s.x1)), 0, cols - 1);
+      const int y = std::clamp(static_cast<int>(s.y1 + t * (s.y2 - s.y1)), 0, rows - 1);
+      ws->covered[static_cast<size_t>(y / cell) * gc + x / cell] = 1;
+    }
+  }
+  return std::find(ws->covered.begin(), ws->covered.end(), 0) != ws->covered.end();
+}
 
 // Orients s -> e so that the brighter side is on the right (image coordinates, y down),
 // given the summed gradient (dark to bright) along the segment: the descriptor and the angle
@@ -350,7 +370,10 @@ void NonMaxSuppression(const cv::Mat& dx, const cv::Mat& dy, const cv::Mat& mag,
 }
 
 // Edge pixels (NMS of the shared gradients), chained, cut into straight runs.
-void DetectEdgeChainSegments(const LineDetectorOptions& opt, float min_piece_len, Workspace* ws) {
+// Edge-chain segments of ws->dx, ws->dy appended to ws->segs; with cell > 0 only in the cells
+// ws->covered leaves uncovered (MarkCoveredCells).
+void DetectEdgeChainSegments(const LineDetectorOptions& opt, float min_piece_len, int cell,
+                             Workspace* ws) {
   const cv::Mat& dx = ws->dx;
   const cv::Mat& dy = ws->dy;
   cv::Mat& edges = ws->edges;
@@ -360,6 +383,14 @@ void DetectEdgeChainSegments(const LineDetectorOptions& opt, float min_piece_len
   CV_Assert(dx.isContinuous() && dy.isContinuous());
   GradientMagnitude(dx, dy, &ws->mag);
   NonMaxSuppression(dx, dy, ws->mag, static_cast<int>(opt.canny_low), &edges);
+  if (cell > 0) {
+    const int gc = (cols + cell - 1) / cell;
+    for (size_t c = 0; c < ws->covered.size(); ++c) {
+      if (!ws->covered[c]) continue;
+      const int x0 = static_cast<int>(c % gc) * cell, y0 = static_cast<int>(c / gc) * cell;
+      edges(cv::Rect(x0, y0, std::min(cell, cols - x0), std::min(cell, rows - y0))).setTo(0);
+    }
+  }
   const int stride = cols;
   int offsets[8];
   for (int k = 0; k < 8; ++k) offsets[k] = kDirY[k] * stride + kDirX[k];
@@ -569,6 +600,8 @@ std::string LineDetectorOptions::Validate() const {
     os << "canny_high=" << canny_high << " must be in [canny_low, 2000]";
   } else if (min_lines < 0 || min_lines > 10000) {
     os << "min_lines=" << min_lines << " must be in [0, 10000]";
+  } else if (low_contrast_cell != 0 && (low_contrast_cell < 16 || low_contrast_cell > 4096)) {
+    os << "low_contrast_cell=" << low_contrast_cell << " must be 0 or in [16, 4096]";
   } else if (!(low_contrast_canny_low > 0.0 && low_contrast_canny_low <= 2000.0)) {
     os << "low_contrast_canny_low=" << low_contrast_canny_low << " must be in (0, 2000]";
   } else if (!(low_contrast_canny_high >= low_contrast_canny_low &&
@@ -665,17 +698,25 @@ void LineDetector::Detect(const cv::Mat& image, LineFeatures* lines, cv::Mat* de
   // With merging, pieces down to half the minimum length may still add up to a kept line.
   const float piece_len = options_.merge_collinear ? 0.5f * min_len : min_len;
   if (options_.detector == LineDetectorKind::kEdgeChain) {
-    DetectEdgeChainSegments(options_, piece_len, &ws);
+    DetectEdgeChainSegments(options_, piece_len, 0, &ws);
     const auto kept = std::count_if(
         segs.begin(), segs.end(), [min_len](const RawSegment& r) { return r.Length() >= min_len; });
-    if (kept < options_.min_lines && options_.low_contrast_canny_high < options_.canny_high) {
+    LineDetectorOptions low = options_;
+    low.canny_low = options_.low_contrast_canny_low;
+    low.canny_high = options_.low_contrast_canny_high;
+    const bool lower = options_.low_contrast_canny_high < options_.canny_high;
+    if (lower && kept < options_.min_lines) {
       // Low contrast: the same search at thresholds just above the image noise. Its segments
       // include the strong ones, so they replace the first search's.
-      LineDetectorOptions low = options_;
-      low.canny_low = options_.low_contrast_canny_low;
-      low.canny_high = options_.low_contrast_canny_high;
       segs.clear();
-      DetectEdgeChainSegments(low, piece_len, &ws);
+      DetectEdgeChainSegments(low, piece_len, 0, &ws);
+    } else if (lower && options_.low_contrast_cell > 0 &&
+               (options_.max_lines == 0 || kept < options_.max_lines) &&
+               MarkCoveredCells(segs, options_.low_contrast_cell, image.rows, image.cols, &ws)) {
+      // Enough segments, but only where the image has contrast: where the first search found
+      // none, the low-contrast search adds its own. Not when the first search already fills
+      // the cap (a street): faint segments would only displace stronger ones.
+      DetectEdgeChainSegments(low, piece_len, options_.low_contrast_cell, &ws);
     }
   } else {
     DetectLsdSegments(image, dx, dy, options_, piece_len, &segs);

@@ -126,6 +126,9 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "edge chain: Canny low threshold of the low-contrast search");
   t.Add("tracker.lines.low_contrast_canny_high", &l.low_contrast_canny_high,
         "edge chain: Canny high threshold of the low-contrast search");
+  t.Add("tracker.lines.low_contrast_cell", &l.low_contrast_cell,
+        "edge chain: an image with enough segments, under max_lines, is searched again at the "
+        "low-contrast thresholds in the cells of this many px that none crosses (0 = never)");
   t.Add("tracker.lines.max_fit_distance", &l.max_fit_distance,
         "edge chain: distance ending a straight run, px");
   t.Add("tracker.lines.merge_collinear", &l.merge_collinear, "edge chain: join collinear pieces");

@@ -334,6 +334,57 @@ TEST(LineDetector, OptionsValidationNamesTheKey) {
   o = {};
   o.lsd_scale = 2;
   expect_key(o, "lsd_scale");
+  o = {};
+  o.low_contrast_cell = 8;
+  expect_key(o, "low_contrast_cell");
+}
+
+TEST(LineDetector, AFaintEdgeBesideStrongOnesIsFoundInTheCellsTheyLeaveEmpty) {
+  // Strong rectangles (more segments than min_lines) on the left two thirds of the image, and
+  // a door frame 12 grey levels off the paint on the plain right third: below the normal
+  // thresholds, above the low-contrast ones, and the image is not poor in segments.
+  Canvas canvas(752, 480, 120);
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) {
+      const double x = 20.3 + 110.0 * c, y = 30.6 + 110.0 * r;
+      canvas.FillPolygon({{x, y}, {x + 70.0, y}, {x + 70.0, y + 60.0}, {x, y + 60.0}}, 220);
+    }
+  }
+  const Eigen::Vector2d a(620.4, 60.0), b(620.4, 420.0);
+  canvas.FillPolygon({{a.x(), a.y()}, {752.0, a.y()}, {752.0, b.y()}, {a.x(), b.y()}}, 132);
+  const cv::Mat img = canvas.Image();
+
+  LineDetectorOptions opt;
+  ASSERT_EQ(opt.low_contrast_cell, 64) << "the default this test describes";
+  LineFeatures with_cells, without;
+  cv::Mat desc;
+  LineDetector(opt).Detect(img, &with_cells, &desc);
+  EXPECT_EQ(desc.rows, static_cast<int>(with_cells.size()));
+  opt.low_contrast_cell = 0;
+  LineDetector(opt).Detect(img, &without, &desc);
+  ASSERT_GE(static_cast<int>(without.size()), opt.min_lines) << "the image must not be poor";
+  // Either orientation (the detector orients segments by their brighter side).
+  auto find = [&](const LineFeatures& lines) {
+    const LineFeature* f = FindEdge(lines, a, b);
+    return f ? f : FindEdge(lines, b, a);
+  };
+  EXPECT_EQ(find(without), nullptr) << "the normal thresholds already see the edge";
+  const LineFeature* found = find(with_cells);
+  ASSERT_NE(found, nullptr) << "the faint edge was not found in the empty cells";
+  EXPECT_GT(found->length, 0.9 * (b - a).norm());
+  // A first search that fills the cap leaves no room: no search in the empty cells.
+  LineDetectorOptions capped;
+  capped.max_lines = opt.min_lines;
+  LineFeatures at_cap;
+  LineDetector(capped).Detect(img, &at_cap, &desc);
+  EXPECT_EQ(find(at_cap), nullptr) << "faint segments displaced strong ones under the cap";
+  // The strong edges are kept as the first search found them.
+  for (const LineFeature& f : without) {
+    bool kept = false;
+    for (const LineFeature& g : with_cells)
+      kept |= (f.s - g.s).norm() < 0.5 && (f.e - g.e).norm() < 0.5;
+    EXPECT_TRUE(kept) << "segment " << f.s.transpose() << " -> " << f.e.transpose() << " lost";
+  }
 }
 
 TEST(MakeLineFeature, NormalisesTheLine) {

@@ -38,6 +38,11 @@ struct LineDetectorOptions {
   int min_lines = 40;
   double low_contrast_canny_low = 15.0;   ///< edge chain: Canny low threshold of that search
   double low_contrast_canny_high = 30.0;  ///< edge chain: Canny high threshold of that search
+  /// Edge chain, in an image that gives min_lines segments or more but fewer than max_lines:
+  /// the low-contrast search runs again in the cells of this many pixels that no segment of
+  /// the first search crosses (a faint door frame on the plain wall beside a poster), its
+  /// segments added to the first search's. 0 = never.
+  int low_contrast_cell = 64;
   double max_fit_distance = 1.0;    ///< edge chain: pixel-to-line distance that ends a straight run
   bool merge_collinear = true;      ///< join collinear pieces split at junctions (both detectors)
   double merge_max_gap = 8.0;       ///< merge: largest gap between pieces along the line, pixels
