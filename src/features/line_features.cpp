@@ -48,8 +48,8 @@ struct Workspace {
   std::vector<uint8_t> covered;  // low-contrast cells: crossed by a first-search segment
 };
 
-// The cells (cell x cell pixels, grid_cols per row) that the segments cross, in ws->covered;
-// true when some cell is left uncovered.
+// The cells (cell x cell pixels, row by row) that the segments cross, in ws->covered; true
+// when some cell is left uncovered.
 bool MarkCoveredCells(const std::vector<RawSegment>& segs, int cell, int rows, int cols,
                       Workspace* ws) {
   const int gc = (cols + cell - 1) / cell, gr = (rows + cell - 1) / cell;
