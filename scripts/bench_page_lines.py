@@ -5,13 +5,12 @@ Used by bench_page.py only (`benchmark_offline.py --page FILE [--sections family
 Runs `pl_slam_bench_lines --recall LAYOUT [--bare] --seeds 1,2,3 --exposure E` for every
 low-texture layout (tuning and held out), textured and bare, at normal and dim exposure, --jobs
 at a time, and tabulates its three detectors: the default edge-chain detector (with its
-low-contrast search in images poor in segments), the same at its normal thresholds only, and
-OpenCV's LSD. Outputs (the tool's Markdown per run) under OUT/lines.
+low-contrast search in images poor in segments and in the empty cells of the others), the same
+at its normal thresholds only, and OpenCV's LSD. Outputs (the tool's Markdown per run) under OUT/lines.
 """
 import concurrent.futures
 import os
 import re
-import subprocess
 
 SEEDS = "1,2,3"
 EXPOSURES = ("normal", "dim")

@@ -46,6 +46,7 @@ struct Workspace {
   std::vector<EdgePoint> pts;
   std::vector<RawSegment> segs;
   std::vector<uint8_t> covered;  // low-contrast cells: crossed by a first-search segment
+  int covered_cols = 0;          // cells per row of `covered`
 };
 
 // The cells (cell x cell pixels, row by row) that the segments cross, in ws->covered; true
@@ -53,6 +54,7 @@ struct Workspace {
 bool MarkCoveredCells(const std::vector<RawSegment>& segs, int cell, int rows, int cols,
                       Workspace* ws) {
   const int gc = (cols + cell - 1) / cell, gr = (rows + cell - 1) / cell;
+  ws->covered_cols = gc;
   ws->covered.assign(static_cast<size_t>(gc) * gr, 0);
   for (const RawSegment& s : segs) {
     // Samples at most half a cell apart, both endpoints included.
@@ -384,7 +386,7 @@ void DetectEdgeChainSegments(const LineDetectorOptions& opt, float min_piece_len
   GradientMagnitude(dx, dy, &ws->mag);
   NonMaxSuppression(dx, dy, ws->mag, static_cast<int>(opt.canny_low), &edges);
   if (cell > 0) {
-    const int gc = (cols + cell - 1) / cell;
+    const int gc = ws->covered_cols;
     for (size_t c = 0; c < ws->covered.size(); ++c) {
       if (!ws->covered[c]) continue;
       const int x0 = static_cast<int>(c % gc) * cell, y0 = static_cast<int>(c / gc) * cell;
