@@ -22,7 +22,9 @@ DETECTORS = (("edge chain (default", "edge chain (default)"),
 ROW = re.compile(r"^\| (?P<label>[^|]+) \| (?P<frames>\d+) \| (?P<edges>\d+) \| "
                  r"(?P<recall>[\d.]+)% \| (?P<per_frame>[\d.]+) \| (?P<precision>[\d.]+)% \| "
                  r"(?P<ms_median>[\d.]+) / (?P<ms_p95>[\d.]+) \| (?P<with_depth>[\d.]+)% of "
-                 r"(?P<steep>\d+) \| (?P<depth_ok>[\d.]+)% \|$")
+                 r"(?P<steep>\d+) \| (?P<depth_ok>[\d.]+)% \|"
+                 r"(?: (?P<offset_median>[\d.]+) / (?P<offset_p90>[\d.]+), "
+                 r"(?P<offset_mean>[-+\d.]+) \|| n/a \|)?$")
 
 
 def parse(text):
@@ -45,7 +47,10 @@ def parse(text):
             "correct": round(float(m.group("precision")) / 100.0 * detections),
             "ms_median": float(m.group("ms_median")), "ms_p95": float(m.group("ms_p95")),
             "steep": steep, "with_depth": with_depth,
-            "depth_ok": round(float(m.group("depth_ok")) / 100.0 * with_depth)}
+            "depth_ok": round(float(m.group("depth_ok")) / 100.0 * with_depth),
+            "offset_median": float(m.group("offset_median")) if m.group("offset_median") else None,
+            "offset_p90": float(m.group("offset_p90")) if m.group("offset_p90") else None,
+            "offset_mean": float(m.group("offset_mean")) if m.group("offset_mean") else None}
     return rows
 
 
@@ -98,11 +103,15 @@ def lines_lines(bo, rows):
              "variant only. Detection time per image on one thread (the tracker detects the two "
              "images in parallel), median over the layouts' medians; steep: correct detections "
              "over the stereo matcher's angle limit, and how many of them got a stereo depth, "
-             "within 0.5 px of the rendered disparity at both ends." % SEEDS)
+             "within 0.5 px of the rendered disparity at both ends. Endpoint offset: how far "
+             "the correct detections' endpoints lie from their edge's line (median and 90th "
+             "percentile of the size, mean signed towards the edge's brighter side), the median "
+             "over the layouts' figures." % SEEDS)
     L.append("")
     L.append("| set | variant | exposure | detector | edges | recall | detections / frame | "
-             "precision | ms / image | steep with stereo depth | depth within 0.5 px |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|---|")
+             "precision | ms / image | steep with stereo depth | depth within 0.5 px | "
+             "endpoint offset, px |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for set_name in ("tuning", "held-out"):
         for variant in VARIANTS:
             for exposure in EXPOSURES:
@@ -115,14 +124,20 @@ def lines_lines(bo, rows):
                     def total(k):
                         return sum(r[k] for r in rs)
 
-                    L.append("| %s | %s | %s | %s | %d | %s | %.1f | %s | %.2f | %s | %s |" % (
+                    def med(k):
+                        v = [r[k] for r in rs if r.get(k) is not None]
+                        return bo.median(v) if v else None
+
+                    offset = ("-" if med("offset_median") is None else "%.2f / %.2f, %+.2f" % (
+                        med("offset_median"), med("offset_p90"), med("offset_mean")))
+                    L.append("| %s | %s | %s | %s | %d | %s | %.1f | %s | %.2f | %s | %s | %s |" % (
                         set_name, variant, exposure, detector, total("edges"),
                         pct(total("found"), total("edges")),
                         total("detections") / max(1, total("frames")),
                         pct(total("correct"), total("detections")),
                         bo.median([r["ms_median"] for r in rs]),
                         pct(total("with_depth"), total("steep")),
-                        pct(total("depth_ok"), total("with_depth"))))
+                        pct(total("depth_ok"), total("with_depth")), offset))
     L.append("")
     # Where the default finds fewer edges than LSD: layout by layout.
     by = {}

@@ -5,7 +5,8 @@
 //   timing:   --data DIR (EuRoC or KITTI folder, rectified by the dataset reader)
 //   accuracy: --gt DIR (stereo_disparity_gt: KITTI 2015 000046_10, Middlebury Motorcycle Q)
 //   f2f:      --sim room|corridor (synthetic sequence with exact depth and poses)
-//   recall:   --recall lowtex_corner [--bare] [--seeds 1,2,3] (edges the world knows)
+//   recall:   --recall lowtex_corner [--bare] [--seeds 1,2,3] (edges the world knows: recall,
+//             precision, stereo depth and endpoint offsets of each detector)
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -493,8 +494,46 @@ struct RecallStats {
   // Correct detections steep enough for stereo, those given a depth, and those whose depth is
   // within 0.5 px of disparity of the rendered one at both ends.
   int steep = 0, with_depth = 0, depth_ok = 0;
+  // Correct detections' endpoint distances from their edge's line, px, signed positive
+  // towards the edge's brighter side (where the two sides differ).
+  std::vector<double> offsets;
   std::vector<double> ms;
 };
+
+// Signed distance of p from the line through (a, b), positive towards the side of the edge
+// that is brighter in `img` (sampled 3 px either side of the edge's middle); false where the
+// two sides do not differ by 4 grey levels.
+bool OffsetTowardsBright(const cv::Mat& img, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                         const Eigen::Vector2d& p, double* offset) {
+  const Eigen::Vector2d u = (b - a).normalized();
+  const Eigen::Vector2d n(-u.y(), u.x()), m = 0.5 * (a + b);
+  auto grey = [&img](const Eigen::Vector2d& q) {
+    const long x = std::lround(q.x()), y = std::lround(q.y());
+    return (x < 0 || y < 0 || x >= img.cols || y >= img.rows)
+               ? -1
+               : static_cast<int>(img.at<uint8_t>(static_cast<int>(y), static_cast<int>(x)));
+  };
+  const int plus = grey(m + 3.0 * n), minus = grey(m - 3.0 * n);
+  if (plus < 0 || minus < 0 || std::abs(plus - minus) < 4) return false;
+  *offset = (plus > minus ? 1.0 : -1.0) * n.dot(p - a);
+  return true;
+}
+
+// "median / p90 |offset|, mean offset" of the endpoint offsets, px.
+std::string OffsetStats(const std::vector<double>& offsets) {
+  if (offsets.empty()) return "n/a";
+  std::vector<double> a;
+  double sum = 0.0;
+  for (double o : offsets) {
+    a.push_back(std::abs(o));
+    sum += o;
+  }
+  std::sort(a.begin(), a.end());
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.2f / %.2f, %+.2f", a[a.size() / 2], a[a.size() * 9 / 10],
+                sum / offsets.size());
+  return buf;
+}
 
 // Length of detection (s, e) lying within 2 px and 3 deg of edge (a, b), along the edge.
 double Overlap(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vector2d& s,
@@ -553,9 +592,17 @@ void RunRecall(const std::string& scene, bool bare, const std::string& exposure,
         pl_slam::MatchStereoLines(cam, &lines, desc, right, right_desc, match);
         for (const auto& l : lines) {
           ++st.detections;
-          bool on_edge = false;
-          for (const auto& g : visible) on_edge |= Overlap(g.a, g.b, l.s, l.e) >= 0.5 * l.length;
+          const pl_slam::sim::VisibleEdge* edge = nullptr;
+          for (const auto& g : visible)
+            if (Overlap(g.a, g.b, l.s, l.e) >= 0.5 * l.length) edge = &g;
+          const bool on_edge = edge != nullptr;
           st.correct += on_edge;
+          double off_s = 0.0, off_e = 0.0;
+          if (on_edge && OffsetTowardsBright(frame.left, edge->a, edge->b, l.s, &off_s) &&
+              OffsetTowardsBright(frame.left, edge->a, edge->b, l.e, &off_e)) {
+            st.offsets.push_back(off_s);
+            st.offsets.push_back(off_e);
+          }
           if (!on_edge || std::abs(std::sin(l.angle)) < min_sin) continue;
           ++st.steep;
           if (!l.has_depth) continue;
@@ -571,17 +618,19 @@ void RunRecall(const std::string& scene, bool bare, const std::string& exposure,
     }
   }
   std::cout << "| detector | frames | edges | recall | detections / frame | precision | ms / image "
-               "(median / p95) | steep edges with stereo depth | depth within 0.5 px |\n"
-               "|---|---|---|---|---|---|---|---|---|\n";
+               "(median / p95) | steep edges with stereo depth | depth within 0.5 px | endpoint "
+               "offset from the edge, px (median / p90 of its size, mean towards the bright "
+               "side) |\n"
+               "|---|---|---|---|---|---|---|---|---|---|\n";
   for (size_t c = 0; c < configs.size(); ++c) {
     const RecallStats& st = stats[c];
-    std::printf("| %s | %d | %d | %.1f%% | %.1f | %.1f%% | %s | %.1f%% of %d | %.1f%% |\n",
+    std::printf("| %s | %d | %d | %.1f%% | %.1f | %.1f%% | %s | %.1f%% of %d | %.1f%% | %s |\n",
                 configs[c].first.c_str(), st.frames, st.edges,
                 100.0 * st.found / std::max(1, st.edges),
                 static_cast<double>(st.detections) / std::max(1, st.frames),
                 100.0 * st.correct / std::max(1, st.detections), Stats(st.ms).c_str(),
                 100.0 * st.with_depth / std::max(1, st.steep), st.steep,
-                100.0 * st.depth_ok / std::max(1, st.with_depth));
+                100.0 * st.depth_ok / std::max(1, st.with_depth), OffsetStats(st.offsets).c_str());
   }
 }
 
