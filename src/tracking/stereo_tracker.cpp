@@ -646,17 +646,19 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
         T_prev_cur = T_cur_prev.inverse();
         result.rotation_measured = true;
       }
+      // The motion model's uncertainty: the increment's own size as its standard deviation
+      // (at least 1 cm and 0.5 deg), so a consumer never over-trusts a prediction. Without
+      // one (the pose stays), the camera still moved unseen: by the last known motion's size,
+      // so the odometry's uncertainty keeps growing over the whole gap.
+      const SE3 size_of = model_valid || rotation ? T_prev_cur : s.velocity_cur_prev;
+      const double st = std::max(0.01, size_of.translation().norm());
+      const double sr = std::max(0.5 * M_PI / 180.0, size_of.RotationAngle());
+      result.covariance_prev_cur.setZero();
+      result.covariance_prev_cur.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr, sr * sr;
       if (model_valid || rotation) {
         s.T_w_c = s.T_w_c * T_prev_cur;
         result.predicted = true;
         result.T_prev_cur = T_prev_cur;
-        // The motion model's uncertainty: the increment's own size as its standard deviation
-        // (at least 1 cm and 0.5 deg), so a consumer never over-trusts a prediction.
-        const double st = std::max(0.01, T_prev_cur.translation().norm());
-        const double sr = std::max(0.5 * M_PI / 180.0, T_prev_cur.RotationAngle());
-        result.covariance_prev_cur.setZero();
-        result.covariance_prev_cur.diagonal() << st * st, st * st, st * st, sr * sr, sr * sr,
-            sr * sr;
       }
       if (model_valid) {
         ++s.predicted_frames;

@@ -1,6 +1,6 @@
 // The odometry chain: its propagated covariance matches the spread of sampled noisy walks,
-// grows along a walk, and the odom poses of a whole run with loop closure stay continuous
-// while the map's poses jump.
+// grows along a walk and over every lost frame, and the odom poses of a whole run with loop closure
+// stay continuous while the map's poses jump.
 #include "pl_slam/system/odometry.h"
 
 #include <random>
@@ -77,6 +77,41 @@ TEST(OdometryChainTest, ResetAndSetCovariance) {
   chain.Reset();
   EXPECT_LT(chain.T_odom_c().translation().norm(), 1e-15);
   EXPECT_LT(chain.covariance()(0, 0), 1e-9);
+}
+
+// Blank frames in the middle of a walk, more than the motion model covers: the odometry's
+// uncertainty grows on every lost frame, also once the pose only stays where it was (the
+// camera goes on moving unseen), so the pose tracking resumes from is not over-trusted.
+TEST(OdometryChainTest, CovarianceGrowsOnEveryLostFrame) {
+  sim::SequenceOptions so;
+  so.scene = sim::SceneKind::kRoom;
+  const sim::SyntheticSequence seq(so);
+  SystemOptions options = testing_util::SequentialWithVocabulary();
+  const int gap_begin = 12, gap_end = gap_begin + 2 * options.tracker.max_predicted_frames + 5;
+  SlamSystem sys(seq.camera(), options);
+  double before_gap = 0.0, previous = 0.0;
+  int unpredicted = 0;
+  for (int i = 0; i < gap_end; ++i) {
+    StereoFrame frame = seq.Render(i);
+    if (i >= gap_begin) frame.left = frame.right = cv::Mat(frame.left.size(), CV_8UC1, 128);
+    const FrameResult r = sys.Process(frame);
+    const double trace = r.odom_covariance.topLeftCorner<3, 3>().trace();
+    if (i < gap_begin) {
+      ASSERT_TRUE(r.pose_valid) << "frame " << i;
+      before_gap = trace;
+    } else {
+      ASSERT_EQ(r.state, TrackingState::kLost) << "frame " << i;
+      EXPECT_GT(trace, previous) << "frame " << i << (r.predicted ? " (predicted)" : "");
+      unpredicted += !r.predicted;
+    }
+    previous = trace;
+  }
+  // Each lost frame adds at least (1 cm)^2 per axis.
+  std::cout << "position variance " << before_gap << " m^2 before the gap, " << previous
+            << " after " << gap_end - gap_begin << " lost frames (" << unpredicted
+            << " past the motion model)\n";
+  EXPECT_GE(unpredicted, options.tracker.max_predicted_frames);
+  EXPECT_GT(previous - before_gap, 3e-4 * (gap_end - gap_begin) * 0.99);
 }
 
 // The room walked once round and a little more: loop closure corrects the map. The map pose

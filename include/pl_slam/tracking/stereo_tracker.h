@@ -126,7 +126,10 @@ struct TrackerResult {
   bool pose_valid = false;  ///< T_w_c was estimated for this frame
   SE3 T_w_c;                ///< pose (the last good one when not valid)
   SE3 T_prev_cur;           ///< increment from the previous frame (identity when not valid)
-  Matrix6d covariance_prev_cur = Matrix6d::Identity();  ///< of T_prev_cur, [rho; phi]
+  /// Of T_prev_cur, [rho; phi]. Lost and not predicted (the pose stays): the motion the
+  /// camera may have made unseen, the last known motion's size per axis (at least 1 cm and
+  /// 0.5 deg).
+  Matrix6d covariance_prev_cur = Matrix6d::Identity();
   bool is_keyframe = false;
   KeyframeReason keyframe_reason = KeyframeReason::kNone;
   int points_detected = 0, lines_detected = 0;  ///< left image
