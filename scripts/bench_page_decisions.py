@@ -463,7 +463,13 @@ DESIGN_DECISIONS = [
      "-> 7.7 mm for 2 and 1 fewer lost frames; dim, seed 2 6.5 -> 12.0 mm); at 0.3 deg held-out "
      "bare loses 33 fewer frames but doorway seed 3 goes 2.0 -> 14.6 mm and office seed 2 10.0 "
      "-> 19.1 mm: in those views the formal deviation is optimistic and the motion model is "
-     "the better guess, so 0.15 stays."),
+     "the better guess, so 0.15 stays. Nor does a refused alignment get a second try with the "
+     "constant-velocity prediction as a prior (as `tracker.fused_*` does for matches; tried "
+     "right after a tracked or aligned frame): the tuning bare corner seed 1 again 2 -> 0 lost "
+     "frames and 17.8 -> 12.1 mm, but held out the bare office seed 2 tracks every frame (46 "
+     "lost before) at 10.0 -> 27.2 mm (0.39 % of the path) and bare doorway seeds 1 / 3 go 3.3 "
+     "-> 11.2 and 2.0 -> 13.4 mm: what those images add to the prediction is biased, not "
+     "noise."),
     ("A few matches with the motion model as a prior (`tracker.fused_*`)",
      "Walking up to a bare wall, the view holds a light switch: 6-10 point matches within a few "
      "centimetres, which alone trade a turn against a sideways step (too uncertain for any "
