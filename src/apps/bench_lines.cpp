@@ -500,11 +500,10 @@ struct RecallStats {
   std::vector<double> ms;
 };
 
-// Signed distance of p from the line through (a, b), positive towards the side of the edge
-// that is brighter in `img` (sampled 3 px either side of the edge's middle); false where the
-// two sides do not differ by 4 grey levels.
-bool OffsetTowardsBright(const cv::Mat& img, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
-                         const Eigen::Vector2d& p, double* offset) {
+// The unit normal of edge (a, b) pointing to its brighter side in `img` (sampled 3 px either
+// side of the edge's middle); false where the two sides do not differ by 4 grey levels.
+bool NormalTowardsBright(const cv::Mat& img, const Eigen::Vector2d& a, const Eigen::Vector2d& b,
+                         Eigen::Vector2d* normal) {
   const Eigen::Vector2d u = (b - a).normalized();
   const Eigen::Vector2d n(-u.y(), u.x()), m = 0.5 * (a + b);
   auto grey = [&img](const Eigen::Vector2d& q) {
@@ -515,7 +514,7 @@ bool OffsetTowardsBright(const cv::Mat& img, const Eigen::Vector2d& a, const Eig
   };
   const int plus = grey(m + 3.0 * n), minus = grey(m - 3.0 * n);
   if (plus < 0 || minus < 0 || std::abs(plus - minus) < 4) return false;
-  *offset = (plus > minus ? 1.0 : -1.0) * n.dot(p - a);
+  *normal = plus > minus ? n : Eigen::Vector2d(-n);
   return true;
 }
 
@@ -597,11 +596,10 @@ void RunRecall(const std::string& scene, bool bare, const std::string& exposure,
             if (Overlap(g.a, g.b, l.s, l.e) >= 0.5 * l.length) edge = &g;
           const bool on_edge = edge != nullptr;
           st.correct += on_edge;
-          double off_s = 0.0, off_e = 0.0;
-          if (on_edge && OffsetTowardsBright(frame.left, edge->a, edge->b, l.s, &off_s) &&
-              OffsetTowardsBright(frame.left, edge->a, edge->b, l.e, &off_e)) {
-            st.offsets.push_back(off_s);
-            st.offsets.push_back(off_e);
+          Eigen::Vector2d bright;
+          if (on_edge && NormalTowardsBright(frame.left, edge->a, edge->b, &bright)) {
+            st.offsets.push_back(bright.dot(l.s - edge->a));
+            st.offsets.push_back(bright.dot(l.e - edge->a));
           }
           if (!on_edge || std::abs(std::sin(l.angle)) < min_sin) continue;
           ++st.steep;

@@ -480,10 +480,9 @@ void SlamSystem::AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r, 
         map_moved && (r.pose_valid || r.predicted) ? r.T_prev_cur : T_w_before.inverse() * s.T_w_c;
     // While lost the uncertainty grows on every frame, also where the pose only stays (the
     // camera moved unseen; TrackerResult::covariance_prev_cur).
-    s.odometry.Advance(result->T_prev_cur,
-                       result->pose_valid || result->predicted || r.state == TrackerState::kLost
-                           ? result->covariance
-                           : Matrix6d::Zero());
+    s.odometry.Advance(result->T_prev_cur, result->pose_valid || r.state == TrackerState::kLost
+                                               ? result->covariance
+                                               : Matrix6d::Zero());
   }
   if (result->relocalized || result->loops > s.loops_seen) {
     // The pose is tied to the map again: its uncertainty is that of one tracked increment
