@@ -18,6 +18,8 @@
 #include <map>
 #include <sstream>
 
+#include <Eigen/Geometry>
+
 #include "pl_slam/camera/stereo_check.h"
 #include "pl_slam/io/stereo_source.h"
 #include "pl_slam/io/trajectory.h"
@@ -62,7 +64,9 @@ constexpr char kUsage[] =
     "                        does) and use it only when it clearly differs\n"
     "outputs: DIR/trajectory.tum, DIR/keyframes.tum (with mapping: the final keyframe poses),\n"
     "         DIR/groundtruth.tum (when known), DIR/timing.csv,\n"
-    "         DIR/frames.txt (stamp of every frame read, for coverage)\n";
+    "         DIR/frames.txt (stamp of every frame read, for coverage),\n"
+    "         DIR/odometry.csv (every frame's odom pose, REP-105, and the standard\n"
+    "         deviations of its covariance: position m and rotation rad about the odom axes)\n";
 
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0.0;
@@ -111,14 +115,22 @@ double HeapInUseMegabytes() {
 /// The per-frame timing record, kept on disk rather than in memory so that a long (soak) run
 /// holds nothing per frame: each frame is appended to DIR/timing.csv.rows as it is processed;
 /// Finish() turns that file into DIR/timing.csv (one column per stage, in first-seen order) and
-/// DIR/frames.txt, both written atomically, and returns the per-frame total times.
+/// DIR/frames.txt, both written atomically, and returns the per-frame total times. The odometry
+/// (every frame's odom pose and its covariance's standard deviations) streams the same way to
+/// DIR/odometry.csv.
 class TimingLog {
  public:
   explicit TimingLog(const std::string& out_dir)
-      : out_dir_(out_dir), rows_path_(out_dir + "/timing.csv.rows") {
+      : out_dir_(out_dir),
+        rows_path_(out_dir + "/timing.csv.rows"),
+        odom_path_(out_dir + "/odometry.csv.rows") {
     rows_.open(rows_path_, std::ios::trunc);
     if (!rows_) throw pl_slam::InputError(rows_path_ + ": cannot write");
     rows_ << std::fixed;
+    odom_.open(odom_path_, std::ios::trunc);
+    if (!odom_) throw pl_slam::InputError(odom_path_ + ": cannot write");
+    odom_ << "frame,stamp,state,tx,ty,tz,qx,qy,qz,qw,sd_x,sd_y,sd_z,sd_rx,sd_ry,sd_rz\n"
+          << std::setprecision(9);
   }
   void Add(int index, double stamp, const pl_slam::FrameResult& r) {
     // The kFixed columns (the header's, total_ms last) then stage=ms pairs; stage names are
@@ -133,6 +145,14 @@ class TimingLog {
       rows_ << "," << name << "=" << ms;
     }
     rows_ << "\n";
+    const Eigen::Vector3d t = r.T_odom_c.translation();
+    const Eigen::Quaterniond q(r.T_odom_c.rotation());
+    const pl_slam::Vector6d sd = r.odom_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    odom_ << index << "," << stamp << "," << pl_slam::TrackingStateName(r.state) << "," << t.x()
+          << "," << t.y() << "," << t.z() << "," << q.x() << "," << q.y() << "," << q.z() << ","
+          << q.w();
+    for (int i = 0; i < 6; ++i) odom_ << "," << sd(i);
+    odom_ << "\n";
     ++count_;
   }
   int count() const { return count_; }
@@ -173,13 +193,16 @@ class TimingLog {
     // Every frame read (tracked or not): what coverage is measured against.
     pl_slam::WriteFileAtomic(out_dir_ + "/frames.txt", frames.str());
     std::filesystem::remove(rows_path_);
+    odom_.close();
+    if (!odom_) throw pl_slam::InputError(odom_path_ + ": write failed (disk full?)");
+    std::filesystem::rename(odom_path_, out_dir_ + "/odometry.csv");
     return totals;
   }
 
  private:
   static constexpr size_t kFixed = 12;  // columns before the stages, total_ms the last
-  std::string out_dir_, rows_path_;
-  std::ofstream rows_;
+  std::string out_dir_, rows_path_, odom_path_;
+  std::ofstream rows_, odom_;
   std::vector<std::string> stages_;
   int count_ = 0;
 };
@@ -413,7 +436,8 @@ int Run(int argc, char** argv) {
             << traj.size() << ", without pose " << lost << "; tracking time median "
             << Percentile(totals, 0.5) << " ms, p95 " << Percentile(totals, 0.95) << " ms\n"
             << "wrote " << traj_path << ", " << out_dir << "/timing.csv, " << out_dir
-            << "/frames.txt" << (keyframes_path.empty() ? "" : ", " + keyframes_path)
+            << "/frames.txt, " << out_dir << "/odometry.csv"
+            << (keyframes_path.empty() ? "" : ", " + keyframes_path)
             << (source->ground_truth().empty() ? "" : ", " + out_dir + "/groundtruth.tum") << "\n";
   if (options.mapping.enabled) {
     const pl_slam::MappingStats ms = system.mapping_stats();

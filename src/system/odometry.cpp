@@ -4,10 +4,23 @@ namespace pl_slam {
 void OdometryChain::Reset() {
   T_odom_c_ = SE3();
   covariance_ = 1e-12 * Matrix6d::Identity();
+  unseen_sigma_sum_.setZero();
 }
 
-void OdometryChain::Advance(const SE3& T_prev_cur, const Matrix6d& increment_covariance) {
+void OdometryChain::Advance(const SE3& T_prev_cur, const Matrix6d& increment_covariance,
+                            bool unseen) {
   if (!T_prev_cur.IsFinite()) return;
+  Matrix6d added = increment_covariance;
+  if (!unseen) {
+    unseen_sigma_sum_.setZero();
+  } else if (increment_covariance.allFinite()) {
+    // The run's error so far and this increment's are the same error: the run's variance
+    // becomes (sum of sigmas)^2, so this increment adds (S + s)^2 - S^2 per axis.
+    const Vector6d s = increment_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
+    const Vector6d next_sum = unseen_sigma_sum_ + s;
+    added = (next_sum.cwiseAbs2() - unseen_sigma_sum_.cwiseAbs2()).asDiagonal();
+    unseen_sigma_sum_ = next_sum;
+  }
   const Eigen::Matrix3d R = T_odom_c_.rotation();
   const Eigen::Vector3d t_world = R * T_prev_cur.translation();
   // p' = p + R t, R' = R R_inc. A rotation error of the previous pose swings the step:
@@ -20,7 +33,7 @@ void OdometryChain::Advance(const SE3& T_prev_cur, const Matrix6d& increment_cov
   G.block<3, 3>(0, 3) = -R * Hat(T_prev_cur.translation());
   G.block<3, 3>(3, 3) = R;
   Matrix6d next = F * covariance_ * F.transpose();
-  if (increment_covariance.allFinite()) next += G * increment_covariance * G.transpose();
+  if (added.allFinite()) next += G * added * G.transpose();
   covariance_ = 0.5 * (next + next.transpose());
   T_odom_c_ = T_odom_c_ * T_prev_cur;
 }
@@ -28,6 +41,7 @@ void OdometryChain::Advance(const SE3& T_prev_cur, const Matrix6d& increment_cov
 void OdometryChain::SetCovariance(const Matrix6d& covariance) {
   if (!covariance.allFinite()) return;
   covariance_ = 0.5 * (covariance + covariance.transpose());
+  unseen_sigma_sum_.setZero();
 }
 
 }  // namespace pl_slam

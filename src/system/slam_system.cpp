@@ -479,10 +479,12 @@ void SlamSystem::AdvanceOdometry(const SE3& T_w_before, const TrackerResult& r, 
     result->T_prev_cur =
         map_moved && (r.pose_valid || r.predicted) ? r.T_prev_cur : T_w_before.inverse() * s.T_w_c;
     // While lost the uncertainty grows on every frame, also where the pose only stays (the
-    // camera moved unseen; TrackerResult::covariance_prev_cur).
-    s.odometry.Advance(result->T_prev_cur, result->pose_valid || r.state == TrackerState::kLost
-                                               ? result->covariance
-                                               : Matrix6d::Zero());
+    // camera moved unseen; TrackerResult::covariance_prev_cur), with the gap's length
+    // (OdometryChain::Advance).
+    const bool unseen = !result->pose_valid && r.state == TrackerState::kLost;
+    s.odometry.Advance(result->T_prev_cur,
+                       result->pose_valid || unseen ? result->covariance : Matrix6d::Zero(),
+                       unseen);
   }
   if (result->relocalized || result->loops > s.loops_seen) {
     // The pose is tied to the map again: its uncertainty is that of one tracked increment

@@ -1,6 +1,6 @@
-// The odometry chain: its propagated covariance matches the spread of sampled noisy walks,
-// grows along a walk and over every lost frame, and the odom poses of a whole run with loop closure
-// stay continuous while the map's poses jump.
+// The odometry chain: its propagated covariance matches the spread of sampled noisy walks and
+// of gaps repeating one motion error, grows along a walk and over every lost frame, and the odom
+// poses of a whole run with loop closure stay continuous while the map's poses jump.
 #include "pl_slam/system/odometry.h"
 
 #include <random>
@@ -62,6 +62,54 @@ TEST(OdometryChainTest, CovarianceMatchesTheSpreadOfNoisyWalks) {
                 0.12 * std::sqrt(chain.covariance()(i, i)))
         << "component " << i;
   }
+}
+
+// A gap of unseen increments: the motion model's step is wrong by one error, drawn once per
+// gap and repeated on every frame (the camera keeps the motion the model got wrong). The
+// chain's covariance must match that spread, which grows with the gap's length: treating the
+// frames' errors as independent understates it by sqrt(length). A measured increment ends the
+// run, so the next gap starts adding up afresh.
+TEST(OdometryChainTest, UnseenRunGrowsWithItsLength) {
+  Vector6d step_xi;
+  step_xi << 0.0, 0.0, 0.05, 0.0, 0.01, 0.0;  // walking forward, turning slowly
+  const SE3 step = SE3::Exp(step_xi);
+  Vector6d sigma;
+  sigma << 0.01, 0.01, 0.02, 0.004, 0.004, 0.004;
+  const Matrix6d inc_cov = sigma.cwiseAbs2().asDiagonal();
+  const int gap = 30;
+  OdometryChain chain, independent;
+  for (int k = 0; k < gap; ++k) {
+    chain.Advance(step, inc_cov, /*unseen=*/true);
+    independent.Advance(step, inc_cov, /*unseen=*/false);
+  }
+  std::mt19937 rng(5);
+  std::normal_distribution<double> n(0.0, 1.0);
+  const int samples = 4000;
+  Matrix6d empirical = Matrix6d::Zero();
+  for (int s = 0; s < samples; ++s) {
+    Vector6d d;
+    for (int i = 0; i < 6; ++i) d(i) = sigma(i) * n(rng);
+    const SE3 wrong = SE3::Exp(d) * step;  // the same error on every frame of the gap
+    SE3 T;
+    for (int k = 0; k < gap; ++k) T = T * wrong;
+    const Vector6d e = PoseError(T, chain.T_odom_c());
+    empirical += e * e.transpose();
+  }
+  empirical /= samples;
+  for (int i = 0; i < 6; ++i) {
+    const double chain_sd = std::sqrt(chain.covariance()(i, i));
+    EXPECT_NEAR(std::sqrt(empirical(i, i)), chain_sd, 0.15 * chain_sd) << "component " << i;
+  }
+  // Independent errors would claim about sqrt(30) = 5.5 times less in the walking direction.
+  EXPECT_GT(chain.covariance()(2, 2), 20.0 * independent.covariance()(2, 2));
+
+  // A measured increment ends the run: a second gap adds as much as the first one did.
+  OdometryChain twice;
+  for (int k = 0; k < gap; ++k) twice.Advance(SE3(), inc_cov, true);
+  const double first_gap = twice.covariance()(2, 2);
+  twice.Advance(SE3(), Matrix6d::Zero(), false);
+  for (int k = 0; k < gap; ++k) twice.Advance(SE3(), inc_cov, true);
+  EXPECT_NEAR(twice.covariance()(2, 2), 2.0 * first_gap, 1e-9 + 1e-6 * first_gap);
 }
 
 TEST(OdometryChainTest, ResetAndSetCovariance) {

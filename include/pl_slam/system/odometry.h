@@ -25,10 +25,18 @@ class OdometryChain {
 
   /// Moves on by `T_prev_cur`, whose covariance (left perturbation, [rho; phi]) is given:
   /// Sigma <- F Sigma F^T + G Sigma_inc G^T (first-order propagation).
-  void Advance(const SE3& T_prev_cur, const Matrix6d& increment_covariance);
+  ///
+  /// `unseen`: the increment was not measured (a lost frame: the motion model's prediction,
+  /// or the pose held while the camera moves on). The errors of consecutive unseen increments
+  /// are one error repeated (the camera keeps the motion the model got wrong), not
+  /// independent draws: over a run of them the standard deviations add, so the uncertainty
+  /// grows with the gap's length, not its square root. Only the diagonal of such an
+  /// increment's covariance is used. A measured increment ends the run.
+  void Advance(const SE3& T_prev_cur, const Matrix6d& increment_covariance, bool unseen = false);
 
   /// Replaces the covariance, e.g. by a small one once a loop closure or relocalisation has
-  /// tied the pose to the map again. Non-finite input is ignored.
+  /// tied the pose to the map again (this also ends a run of unseen increments). Non-finite
+  /// input is ignored.
   void SetCovariance(const Matrix6d& covariance);
 
   /// The odometry pose of the camera.
@@ -39,6 +47,9 @@ class OdometryChain {
  private:
   SE3 T_odom_c_;
   Matrix6d covariance_;
+  // Per axis of the increments ([rho; phi]), the summed standard deviations of the current
+  // run of unseen increments (zero outside one).
+  Vector6d unseen_sigma_sum_ = Vector6d::Zero();
 };
 
 }  // namespace pl_slam
