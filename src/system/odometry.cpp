@@ -1,5 +1,7 @@
 #include "pl_slam/system/odometry.h"
 
+#include <cmath>
+
 namespace pl_slam {
 void OdometryChain::Reset() {
   T_odom_c_ = SE3();
@@ -15,9 +17,11 @@ void OdometryChain::Advance(const SE3& T_prev_cur, const Matrix6d& increment_cov
     unseen_sigma_sum_.setZero();
   } else if (increment_covariance.allFinite()) {
     // The run's error so far and this increment's are the same error: the run's variance
-    // becomes (sum of sigmas)^2, so this increment adds (S + s)^2 - S^2 per axis.
+    // becomes (sum of sigmas)^2, so this increment adds (S + s)^2 - S^2 per axis. A rotation
+    // error beyond half a turn says no more than half a turn: the sum stops there.
     const Vector6d s = increment_covariance.diagonal().cwiseMax(0.0).cwiseSqrt();
-    const Vector6d next_sum = unseen_sigma_sum_ + s;
+    Vector6d next_sum = unseen_sigma_sum_ + s;
+    next_sum.tail<3>() = next_sum.tail<3>().cwiseMin(M_PI);
     added = (next_sum.cwiseAbs2() - unseen_sigma_sum_.cwiseAbs2()).asDiagonal();
     unseen_sigma_sum_ = next_sum;
   }

@@ -112,6 +112,26 @@ TEST(OdometryChainTest, UnseenRunGrowsWithItsLength) {
   EXPECT_NEAR(twice.covariance()(2, 2), 2.0 * first_gap, 1e-9 + 1e-6 * first_gap);
 }
 
+// A long gap while turning: the summed rotation deviation stops at half a turn per axis, the
+// position's goes on growing.
+TEST(OdometryChainTest, UnseenRotationStopsAtHalfATurn) {
+  Vector6d step_xi;
+  step_xi << 0.0, 0.0, 0.05, 0.0, 0.08, 0.0;
+  const Matrix6d inc_cov = (step_xi.cwiseAbs2() + Vector6d::Constant(1e-4)).asDiagonal();
+  OdometryChain chain;
+  double position_before = 0.0;
+  for (int k = 0; k < 200; ++k) {
+    chain.Advance(SE3::Exp(step_xi), inc_cov, /*unseen=*/true);
+    const double position = chain.covariance().topLeftCorner<3, 3>().trace();
+    EXPECT_GT(position, position_before) << "frame " << k;
+    position_before = position;
+  }
+  // 200 frames of 4.6 deg would sum to over 900 deg.
+  const double rotation = chain.covariance().bottomRightCorner<3, 3>().trace();
+  EXPECT_LE(rotation, 3.0 * M_PI * M_PI * 1.0001);
+  EXPECT_GE(rotation, 0.99 * M_PI * M_PI);
+}
+
 TEST(OdometryChainTest, ResetAndSetCovariance) {
   OdometryChain chain;
   chain.Advance(SE3::Exp(Vector6d::Constant(0.1)), Matrix6d::Identity() * 1e-4);

@@ -30,8 +30,9 @@ class OdometryChain {
   /// or the pose held while the camera moves on). The errors of consecutive unseen increments
   /// are one error repeated (the camera keeps the motion the model got wrong), not
   /// independent draws: over a run of them the standard deviations add, so the uncertainty
-  /// grows with the gap's length, not its square root. Only the diagonal of such an
-  /// increment's covariance is used. A measured increment ends the run.
+  /// grows with the gap's length, not its square root (a rotation's summed deviation stops at
+  /// pi: half a turn off is as unknown as it gets). Only the diagonal of such an increment's
+  /// covariance is used. A measured increment ends the run.
   void Advance(const SE3& T_prev_cur, const Matrix6d& increment_covariance, bool unseen = false);
 
   /// Replaces the covariance, e.g. by a small one once a loop closure or relocalisation has
