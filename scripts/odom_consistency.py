@@ -12,7 +12,9 @@ odom pose's error against the truth with the covariance the odometry states for 
 For an honest covariance z^2 is 1 on average (a Gaussian error in three axes has a median z of
 0.89) and z > 3 is rare: z > 3 means the covariance claims a certainty the pose does not have,
 what a consumer fusing ~odom must never be told. Figures for tracked frames, lost frames and
-the last frame of each gap (the pose tracking resumes from), per folder and pooled.
+the last frame of each gap (the pose tracking resumes from), per folder and pooled. The ground
+truth must give the left camera's poses, as it does for pl_slam_generate's sequences (EuRoC's
+is the body's: its lever arm adds to the position error).
 
   /usr/bin/python3 scripts/odom_consistency.py RUN_DIR [RUN_DIR ...] [--json FILE]
 """

@@ -130,7 +130,7 @@ class TimingLog {
     odom_.open(odom_path_, std::ios::trunc);
     if (!odom_) throw pl_slam::InputError(odom_path_ + ": cannot write");
     odom_ << "frame,stamp,state,tx,ty,tz,qx,qy,qz,qw,sd_x,sd_y,sd_z,sd_rx,sd_ry,sd_rz\n"
-          << std::setprecision(9);
+          << std::fixed << std::setprecision(9);
   }
   void Add(int index, double stamp, const pl_slam::FrameResult& r) {
     // The kFixed columns (the header's, total_ms last) then stage=ms pairs; stage names are
