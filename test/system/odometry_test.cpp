@@ -25,6 +25,29 @@ Vector6d PoseError(const SE3& truth, const SE3& est) {
   return e;
 }
 
+// The spread of `samples` walks of `steps` steps about the chain's pose `T_odom_c`: each step is
+// `step` perturbed on the left by noise of standard deviations `sigma`, drawn anew every step,
+// or (one_error) once per walk and repeated on every step.
+Matrix6d SampledCovariance(const SE3& step, const Vector6d& sigma, int steps, bool one_error,
+                           const SE3& T_odom_c, unsigned seed, int samples = 4000) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 1.0);
+  auto draw = [&]() {
+    Vector6d d;
+    for (int i = 0; i < 6; ++i) d(i) = sigma(i) * n(rng);
+    return SE3::Exp(d) * step;
+  };
+  Matrix6d empirical = Matrix6d::Zero();
+  for (int s = 0; s < samples; ++s) {
+    SE3 T;
+    const SE3 wrong = one_error ? draw() : step;
+    for (int k = 0; k < steps; ++k) T = T * (one_error ? wrong : draw());
+    const Vector6d e = PoseError(T, T_odom_c);
+    empirical += e * e.transpose();
+  }
+  return empirical / samples;
+}
+
 TEST(OdometryChainTest, CovarianceMatchesTheSpreadOfNoisyWalks) {
   // A curving walk of 40 steps; each measured step has left-perturbation noise Sigma_inc.
   Vector6d step_xi;
@@ -42,21 +65,7 @@ TEST(OdometryChainTest, CovarianceMatchesTheSpreadOfNoisyWalks) {
     previous_trace = trace;
   }
   // Monte Carlo: truth = the noise-free chain; samples perturb every step.
-  std::mt19937 rng(3);
-  std::normal_distribution<double> n(0.0, 1.0);
-  const int samples = 4000;
-  Matrix6d empirical = Matrix6d::Zero();
-  for (int s = 0; s < samples; ++s) {
-    SE3 T;
-    for (int k = 0; k < 40; ++k) {
-      Vector6d d;
-      for (int i = 0; i < 6; ++i) d(i) = sigma(i) * n(rng);
-      T = T * (SE3::Exp(d) * step);
-    }
-    const Vector6d e = PoseError(T, chain.T_odom_c());
-    empirical += e * e.transpose();
-  }
-  empirical /= samples;
+  const Matrix6d empirical = SampledCovariance(step, sigma, 40, false, chain.T_odom_c(), 3);
   for (int i = 0; i < 6; ++i) {
     EXPECT_NEAR(std::sqrt(empirical(i, i)), std::sqrt(chain.covariance()(i, i)),
                 0.12 * std::sqrt(chain.covariance()(i, i)))
@@ -82,20 +91,8 @@ TEST(OdometryChainTest, UnseenRunGrowsWithItsLength) {
     chain.Advance(step, inc_cov, /*unseen=*/true);
     independent.Advance(step, inc_cov, /*unseen=*/false);
   }
-  std::mt19937 rng(5);
-  std::normal_distribution<double> n(0.0, 1.0);
-  const int samples = 4000;
-  Matrix6d empirical = Matrix6d::Zero();
-  for (int s = 0; s < samples; ++s) {
-    Vector6d d;
-    for (int i = 0; i < 6; ++i) d(i) = sigma(i) * n(rng);
-    const SE3 wrong = SE3::Exp(d) * step;  // the same error on every frame of the gap
-    SE3 T;
-    for (int k = 0; k < gap; ++k) T = T * wrong;
-    const Vector6d e = PoseError(T, chain.T_odom_c());
-    empirical += e * e.transpose();
-  }
-  empirical /= samples;
+  // The same error on every frame of the gap.
+  const Matrix6d empirical = SampledCovariance(step, sigma, gap, true, chain.T_odom_c(), 5);
   for (int i = 0; i < 6; ++i) {
     const double chain_sd = std::sqrt(chain.covariance()(i, i));
     EXPECT_NEAR(std::sqrt(empirical(i, i)), chain_sd, 0.15 * chain_sd) << "component " << i;
