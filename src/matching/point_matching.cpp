@@ -23,6 +23,8 @@ std::string PointMatchingOptions::Validate() const {
     os << "min_disparity=" << min_disparity << " must be in [0, max_disparity)";
   else if (!(max_disparity > 0.0 && max_disparity <= 1000.0))
     os << "max_disparity=" << max_disparity << " must be in (0, 1000]";
+  else if (!(f2f_max_angle_deg > 0.0 && f2f_max_angle_deg <= 180.0))
+    os << "f2f_max_angle_deg=" << f2f_max_angle_deg << " must be in (0, 180]";
   else if (!(f2f_ratio > 0.0 && f2f_ratio <= 1.0))
     os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
   else if (!(search_radius > 0.0 && search_radius <= 1000.0))
@@ -160,8 +162,8 @@ struct RightSums {
 /// Searches the right image's row v0 for the 11x11 patch around left pixel (u0, v0), over the
 /// right columns [c0, c1]: the column of the highest zero-mean normalised cross-correlation, with
 /// a parabola through it and its neighbours. False when the best is under min_zncc, on the
-/// range's border, or not `margin` above every column more than 2 px from it (a repeated or
-/// edge-like patch), or when the left patch is flat.
+/// range's border, or not `margin` above every column more than 2 px from it and off its
+/// peak's falling flanks (a repeated or edge-like patch), or when the left patch is flat.
 bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u0, int v0, int c0,
                int c1, double min_zncc, double margin, double* ur) {
   constexpr int kHalf = 5, kN = 2 * kHalf + 1, kMaxRange = 1024;
@@ -215,8 +217,16 @@ bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u
     }
   }
   if (best_z < min_zncc || best == 0 || best == n - 1) return false;
+  // The best peak's flanks: the columns over which the correlation falls steadily away from
+  // it. A corner's peak has wide flanks along a row (its edge along the row still half
+  // matches a few pixels off); they are the same match, not a rival. A second peak, or an edge's
+  // flat ridge (whose noise ends a flank at once), is.
+  int lo = best, hi = best;
+  while (lo > 0 && z[lo - 1] <= z[lo]) --lo;
+  while (hi < n - 1 && z[hi + 1] <= z[hi]) ++hi;
   for (int c = 0; c < n; ++c)
-    if (std::abs(c - best) > 2 && z[c] > best_z - margin) return false;
+    if ((c < std::min(lo, best - 2) || c > std::max(hi, best + 2)) && z[c] > best_z - margin)
+      return false;
   const double denom = z[best - 1] - 2.0 * z[best] + z[best + 1];
   const double delta =
       denom < 0.0 ? std::clamp(0.5 * (z[best - 1] - z[best + 1]) / denom, -0.5, 0.5) : 0.0;
@@ -280,6 +290,15 @@ struct CandidateSearch {
   }
 };
 
+/// Difference of two keypoint orientations (cv::KeyPoint::angle, degrees), in [0, 180], after
+/// turning the first by `turn` degrees; an orientation not known (negative) agrees with every
+/// other.
+double AngleBetweenDeg(float a, float b, double turn = 0.0) {
+  if (a < 0.0f || b < 0.0f) return 0.0;
+  const double d = std::fmod(std::abs(static_cast<double>(a) + turn - b), 360.0);
+  return d > 180.0 ? 360.0 - d : d;
+}
+
 }  // namespace
 
 int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
@@ -291,6 +310,7 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
   for (size_t i = 0; i < left_kp.size(); ++i) {
     (*points)[i].uv = Eigen::Vector2d(left_kp[i].pt.x, left_kp[i].pt.y);
     (*points)[i].octave = left_kp[i].octave;
+    (*points)[i].angle = left_kp[i].angle;
   }
   if (left_kp.empty()) return 0;
   const bool descriptors = !right_kp.empty() && !left_desc.empty() && !right_desc.empty();
@@ -394,12 +414,19 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
   std::vector<int> match_of_prev(prev.size(), -1);
   std::vector<int> best_prev_of_cur(cur.size(), -1), best_dist_of_cur(cur.size(), INT_MAX);
   const double r2 = options.search_radius * options.search_radius;
+  // The predicted turn of the image about the optical axis (keypoint orientations turn with it).
+  const bool check_angle = T_cur_prev && options.f2f_max_angle_deg < 180.0;
+  const Eigen::Matrix3d R = T_cur_prev ? T_cur_prev->rotation() : Eigen::Matrix3d::Identity();
+  const double roll_deg = std::atan2(R(1, 0), R(0, 0)) * 180.0 / M_PI;
   for (int i = 0; i < static_cast<int>(prev.size()); ++i) {
     if (!prev[i].has_depth) continue;
     const uint8_t* dp = prev_desc.ptr<uint8_t>(i);
     CandidateSearch search(options.same_corner_radius);
     auto consider = [&](int j) {
       if (std::abs(prev[i].octave - cur[j].octave) > 2) return;
+      if (check_angle &&
+          AngleBetweenDeg(prev[i].angle, cur[j].angle, roll_deg) > options.f2f_max_angle_deg)
+        return;
       search.Offer(i, j, HammingDistance32(dp, cur_desc.ptr<uint8_t>(j)), &best_dist_of_cur,
                    &best_prev_of_cur);
     };

@@ -88,13 +88,17 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.point_matching.row_search_min_zncc", &pm.row_search_min_zncc,
         "row search: ZNCC a match must reach (0 = no row search)");
   t.Add("tracker.point_matching.row_search_margin", &pm.row_search_margin,
-        "row search: ZNCC by which the best column beats every other more than 2 px away");
+        "row search: ZNCC by which the best column beats every other more than 2 px away and "
+        "off its peak's falling flanks");
   t.Add("tracker.point_matching.f2f_ratio", &pm.f2f_ratio, "frame-to-frame ratio test");
   t.Add("tracker.point_matching.same_corner_radius", &pm.same_corner_radius,
         "ratio tests: candidates this close to the best (px) are the same corner detected again, "
         "not rivals (0 = all are rivals)");
   t.Add("tracker.point_matching.search_radius", &pm.search_radius,
         "guided frame-to-frame search radius, px");
+  t.Add("tracker.point_matching.f2f_max_angle_deg", &pm.f2f_max_angle_deg,
+        "guided frame to frame: largest keypoint orientation difference of a candidate after "
+        "the predicted roll, deg (180 = off)");
   t.Add("tracker.point_matching.f2f_align_max_shift", &pm.f2f_align_max_shift,
         "frame to frame and keyframe: a match's current position is where the reference "
         "patch aligns, within this many px of the keypoint, where the predicted motion does "

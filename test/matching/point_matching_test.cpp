@@ -189,11 +189,12 @@ TEST(PointMatching, RowSearchRefusesRepeatedAndFlatPatches) {
 // level, so the detector finds it two to four times. Those copies are the same place, not
 // rivals: counted as rivals they make the ratio tests refuse many corners (stereo and frame to
 // frame); with same_corner_radius those match too, at the right disparity and shift.
-cv::Mat PlatesOnAWall(int shift_u, int shift_v) {
+// `plate`: the plates' grey level, `blur`: the optics' (sigma, px).
+cv::Mat PlatesOnAWall(int shift_u, int shift_v, int plate = 200, double blur = 0.6) {
   cv::Mat img(480, 752, CV_8UC1, cv::Scalar(150));
   for (int k = 0; k < 4; ++k) {  // no two on the same rows, no two of the same size
     const int u = 200 + 120 * k + shift_u, v = 40 + 105 * k + shift_v;
-    cv::rectangle(img, cv::Rect(u, v, 44 + 8 * k, 70 + 6 * k), cv::Scalar(200), cv::FILLED);
+    cv::rectangle(img, cv::Rect(u, v, 44 + 8 * k, 70 + 6 * k), cv::Scalar(plate), cv::FILLED);
     cv::rectangle(img, cv::Rect(u + 16 + 2 * k, v + 24, 12 + 2 * k, 22), cv::Scalar(90),
                   cv::FILLED);
   }
@@ -203,7 +204,7 @@ cv::Mat PlatesOnAWall(int shift_u, int shift_v) {
   img.convertTo(out, CV_16SC1);
   out += noise;
   out.convertTo(out, CV_8UC1);
-  cv::GaussianBlur(out, out, cv::Size(0, 0), 0.6);
+  cv::GaussianBlur(out, out, cv::Size(0, 0), blur);
   return out;
 }
 
@@ -225,6 +226,7 @@ TEST(PointMatching, CopiesOfOneCornerAreNotItsRivals) {
     PointMatchingOptions mo;
     mo.row_search_min_zncc = 0.0;  // descriptor matches only
     mo.same_corner_radius = on ? 4.0 : 0.0;
+    mo.f2f_max_angle_deg = 180.0;  // the copies alone (orientations: the test below)
     PointFeatures a, b;
     MatchStereoPoints(cam, left, right, kl, dl, kr, dr, mo, &a);
     MatchStereoPoints(cam, next, next_right, kn, dn, knr, dnr, mo, &b);
@@ -250,6 +252,88 @@ TEST(PointMatching, CopiesOfOneCornerAreNotItsRivals) {
             stereo_wrong[0] * (stereo[1] + stereo_wrong[1]));
   EXPECT_GE(f2f[1], f2f[0] + 6);
   EXPECT_LE(f2f_wrong[1] * (f2f[0] + f2f_wrong[0]), f2f_wrong[0] * (f2f[1] + f2f_wrong[1]));
+}
+
+// A faint, soft plate's corner correlates along its row over a wide peak (its horizontal edge
+// still half matches a few pixels off): the peak's flanks are the same match, not rivals, so
+// the row search gives every corner its depth. A point halfway along the same edge has no peak,
+// only a ridge: no depth.
+TEST(PointMatching, RowSearchTakesCornersWhoseEdgeRunsAlongTheRow) {
+  const StereoCamera cam = testing_util::EurocSizedCamera();
+  constexpr int kDisparity = 30, kPlate = 175;
+  constexpr double kBlur = 1.2;
+  const cv::Mat left = PlatesOnAWall(0, 0, kPlate, kBlur),
+                right = PlatesOnAWall(-kDisparity, 0, kPlate, kBlur);
+  std::vector<cv::KeyPoint> corners, edges;
+  for (int k = 0; k < 4; ++k) {  // the plates as PlatesOnAWall draws them
+    const float u = 200 + 120 * k, v = 40 + 105 * k, w = 44 + 8 * k, h = 70 + 6 * k;
+    for (float cu : {u, u + w - 1})
+      for (float cv : {v, v + h - 1}) corners.emplace_back(cu, cv, 31.f);
+    edges.emplace_back(u + w / 2, v, 31.f);
+    edges.emplace_back(u + w / 2, v + h - 1, 31.f);
+  }
+  const auto depths = [&](const std::vector<cv::KeyPoint>& kps, int* wrong) {
+    const cv::Mat desc(static_cast<int>(kps.size()), 32, CV_8UC1, cv::Scalar(0));
+    PointFeatures points;
+    MatchStereoPoints(cam, left, right, kps, desc, {}, cv::Mat(), PointMatchingOptions(), &points);
+    int right_disparity = 0;
+    *wrong = 0;
+    for (const PointFeature& p : points) {
+      if (!p.has_depth) continue;
+      ++(std::abs(cam.TrueDisparity(p.disparity) - kDisparity) < 0.5 ? right_disparity : *wrong);
+    }
+    return right_disparity;
+  };
+  int wrong = 0;
+  EXPECT_EQ(depths(corners, &wrong), static_cast<int>(corners.size()));
+  EXPECT_EQ(wrong, 0);
+  EXPECT_EQ(depths(edges, &wrong), 0);
+  EXPECT_EQ(wrong, 0);
+}
+
+// The four corners of a plate look alike to oriented descriptors (each is the others turned by
+// a quarter turn), so within the search radius they are each other's rivals. Their
+// orientations tell them apart: with the check, more corners match frame to frame, and no
+// larger share wrongly.
+TEST(PointMatching, OrientationTellsAPlatesCornersApartFrameToFrame) {
+  const StereoCamera cam = testing_util::EurocSizedCamera();
+  constexpr int kDisparity = 30, kDu = 6, kDv = 4;
+  const cv::Mat left = PlatesOnAWall(0, 0), right = PlatesOnAWall(-kDisparity, 0);
+  const cv::Mat next = PlatesOnAWall(kDu, kDv), next_right = PlatesOnAWall(kDu - kDisparity, kDv);
+  PointDetector det{PointDetectorOptions()};
+  std::vector<cv::KeyPoint> kl, kr, kn, knr;
+  cv::Mat dl, dr, dn, dnr;
+  det.Detect(left, &kl, &dl);
+  det.Detect(right, &kr, &dr);
+  det.Detect(next, &kn, &dn);
+  det.Detect(next_right, &knr, &dnr);
+  PointMatchingOptions mo;
+  PointFeatures a, b;
+  MatchStereoPoints(cam, left, right, kl, dl, kr, dr, mo, &a);
+  MatchStereoPoints(cam, next, next_right, kn, dn, knr, dnr, mo, &b);
+  int good[2] = {0, 0}, wrong[2] = {0, 0};  // without (0) and with (1) the check
+  for (int on = 0; on < 2; ++on) {
+    mo.f2f_max_angle_deg = on ? 30.0 : 180.0;
+    const SE3 still;  // the prediction: no motion, the shift is within the search radius
+    for (const auto& [i, j] : MatchPointsFrameToFrame(cam, a, dl, b, dn, mo, &still)) {
+      const bool right_shift = (b[j].uv - a[i].uv - Eigen::Vector2d(kDu, kDv)).norm() < 1.5;
+      ++(right_shift ? good : wrong)[on];
+    }
+  }
+  std::cout << "frame to frame, correct (wrong): " << good[0] << " (" << wrong[0] << ") -> "
+            << good[1] << " (" << wrong[1] << ")" << std::endl;
+  EXPECT_GE(good[1], good[0] + 6);
+  EXPECT_LE(wrong[1] * (good[0] + wrong[0]), wrong[0] * (good[1] + wrong[1]));
+  // Turned by the predicted roll: a prediction that the image turned by 90 degrees about the
+  // optical axis expects every orientation a quarter turn further, and refuses these matches.
+  mo.f2f_max_angle_deg = 30.0;
+  const SE3 rolled(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())),
+                   Eigen::Vector3d::Zero());
+  mo.search_radius = 1000.0;  // positions predicted wrongly too: only the orientations refuse
+  int kept = 0;
+  for (const auto& [i, j] : MatchPointsFrameToFrame(cam, a, dl, b, dn, mo, &rolled))
+    kept += (b[j].uv - a[i].uv - Eigen::Vector2d(kDu, kDv)).norm() < 1.5;
+  EXPECT_LT(kept, good[1] / 4);
 }
 
 TEST(PointMatching, FrameToFrameMatchesAreConsistentWithTheTruePose) {

@@ -28,7 +28,9 @@ struct PointMatchingOptions {
   /// points: a left keypoint left without a partner (the right image's detector missed that
   /// corner, common at low contrast) is looked for along its row by zero-mean normalised
   /// cross-correlation (ZNCC) of an 11x11 patch; accepted when the best column reaches
-  /// row_search_min_zncc and beats every column more than 2 px away by row_search_margin.
+  /// row_search_min_zncc and beats by row_search_margin every column more than 2 px away that
+  /// is not on its own peak's falling flanks (a corner's peak is wide along the row, where its
+  /// horizontal edge still half matches; an edge's flat ridge or a second peak is a rival).
   int row_search_below = 150;
   double row_search_min_zncc = 0.9;  ///< see row_search_below; 0 = no row search
   double row_search_margin = 0.2;    ///< see row_search_below
@@ -39,6 +41,12 @@ struct PointMatchingOptions {
   /// docs/BENCHMARKS.md, design decisions.
   double same_corner_radius = 0.0;
   double search_radius = 30.0;  ///< frame to frame with a prediction: radius, pixels
+  /// Frame to frame with a prediction: a current keypoint whose orientation differs by more
+  /// than this from the reference keypoint's, turned by the predicted roll, is no candidate
+  /// (nor a rival in the ratio test); 180 = off. Oriented descriptors make the four corners of
+  /// a rectangle (a switch plate, a door panel) look alike, so without it they refuse each
+  /// other in the ratio test.
+  double f2f_max_angle_deg = 30.0;
   /// Frame to frame (and against the last keyframe): a matched point's position in the
   /// current image is where the reference image's 11x11 patch around the reference keypoint
   /// aligns (matching/patch_alignment.h), not the current keypoint itself, when the alignment
