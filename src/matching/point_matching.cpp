@@ -23,8 +23,6 @@ std::string PointMatchingOptions::Validate() const {
     os << "min_disparity=" << min_disparity << " must be in [0, max_disparity)";
   else if (!(max_disparity > 0.0 && max_disparity <= 1000.0))
     os << "max_disparity=" << max_disparity << " must be in (0, 1000]";
-  else if (!(f2f_max_angle_deg > 0.0 && f2f_max_angle_deg <= 180.0))
-    os << "f2f_max_angle_deg=" << f2f_max_angle_deg << " must be in (0, 180]";
   else if (!(f2f_ratio > 0.0 && f2f_ratio <= 1.0))
     os << "f2f_ratio=" << f2f_ratio << " must be in (0, 1]";
   else if (!(search_radius > 0.0 && search_radius <= 1000.0))
@@ -290,15 +288,6 @@ struct CandidateSearch {
   }
 };
 
-/// Difference of two keypoint orientations (cv::KeyPoint::angle, degrees), in [0, 180], after
-/// turning the first by `turn` degrees; an orientation not known (negative) agrees with every
-/// other.
-double AngleBetweenDeg(float a, float b, double turn = 0.0) {
-  if (a < 0.0f || b < 0.0f) return 0.0;
-  const double d = std::fmod(std::abs(static_cast<double>(a) + turn - b), 360.0);
-  return d > 180.0 ? 360.0 - d : d;
-}
-
 }  // namespace
 
 int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
@@ -310,7 +299,6 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
   for (size_t i = 0; i < left_kp.size(); ++i) {
     (*points)[i].uv = Eigen::Vector2d(left_kp[i].pt.x, left_kp[i].pt.y);
     (*points)[i].octave = left_kp[i].octave;
-    (*points)[i].angle = left_kp[i].angle;
   }
   if (left_kp.empty()) return 0;
   const bool descriptors = !right_kp.empty() && !left_desc.empty() && !right_desc.empty();
@@ -414,19 +402,12 @@ std::vector<std::pair<int, int>> MatchPointsFrameToFrame(
   std::vector<int> match_of_prev(prev.size(), -1);
   std::vector<int> best_prev_of_cur(cur.size(), -1), best_dist_of_cur(cur.size(), INT_MAX);
   const double r2 = options.search_radius * options.search_radius;
-  // The predicted turn of the image about the optical axis (keypoint orientations turn with it).
-  const bool check_angle = T_cur_prev && options.f2f_max_angle_deg < 180.0;
-  const Eigen::Matrix3d R = T_cur_prev ? T_cur_prev->rotation() : Eigen::Matrix3d::Identity();
-  const double roll_deg = std::atan2(R(1, 0), R(0, 0)) * 180.0 / M_PI;
   for (int i = 0; i < static_cast<int>(prev.size()); ++i) {
     if (!prev[i].has_depth) continue;
     const uint8_t* dp = prev_desc.ptr<uint8_t>(i);
     CandidateSearch search(options.same_corner_radius);
     auto consider = [&](int j) {
       if (std::abs(prev[i].octave - cur[j].octave) > 2) return;
-      if (check_angle &&
-          AngleBetweenDeg(prev[i].angle, cur[j].angle, roll_deg) > options.f2f_max_angle_deg)
-        return;
       search.Offer(i, j, HammingDistance32(dp, cur_desc.ptr<uint8_t>(j)), &best_dist_of_cur,
                    &best_prev_of_cur);
     };

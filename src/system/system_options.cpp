@@ -96,9 +96,6 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "not rivals (0 = all are rivals)");
   t.Add("tracker.point_matching.search_radius", &pm.search_radius,
         "guided frame-to-frame search radius, px");
-  t.Add("tracker.point_matching.f2f_max_angle_deg", &pm.f2f_max_angle_deg,
-        "guided frame to frame: largest keypoint orientation difference of a candidate after "
-        "the predicted roll, deg (180 = off)");
   t.Add("tracker.point_matching.f2f_align_max_shift", &pm.f2f_align_max_shift,
         "frame to frame and keyframe: a match's current position is where the reference "
         "patch aligns, within this many px of the keypoint, where the predicted motion does "

@@ -226,7 +226,6 @@ TEST(PointMatching, CopiesOfOneCornerAreNotItsRivals) {
     PointMatchingOptions mo;
     mo.row_search_min_zncc = 0.0;  // descriptor matches only
     mo.same_corner_radius = on ? 4.0 : 0.0;
-    mo.f2f_max_angle_deg = 180.0;  // the copies alone (orientations: the test below)
     PointFeatures a, b;
     MatchStereoPoints(cam, left, right, kl, dl, kr, dr, mo, &a);
     MatchStereoPoints(cam, next, next_right, kn, dn, knr, dnr, mo, &b);
@@ -289,51 +288,6 @@ TEST(PointMatching, RowSearchTakesCornersWhoseEdgeRunsAlongTheRow) {
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(depths(edges, &wrong), 0);
   EXPECT_EQ(wrong, 0);
-}
-
-// The four corners of a plate look alike to oriented descriptors (each is the others turned by
-// a quarter turn), so within the search radius they are each other's rivals. Their
-// orientations tell them apart: with the check, more corners match frame to frame, and no
-// larger share wrongly.
-TEST(PointMatching, OrientationTellsAPlatesCornersApartFrameToFrame) {
-  const StereoCamera cam = testing_util::EurocSizedCamera();
-  constexpr int kDisparity = 30, kDu = 6, kDv = 4;
-  const cv::Mat left = PlatesOnAWall(0, 0), right = PlatesOnAWall(-kDisparity, 0);
-  const cv::Mat next = PlatesOnAWall(kDu, kDv), next_right = PlatesOnAWall(kDu - kDisparity, kDv);
-  PointDetector det{PointDetectorOptions()};
-  std::vector<cv::KeyPoint> kl, kr, kn, knr;
-  cv::Mat dl, dr, dn, dnr;
-  det.Detect(left, &kl, &dl);
-  det.Detect(right, &kr, &dr);
-  det.Detect(next, &kn, &dn);
-  det.Detect(next_right, &knr, &dnr);
-  PointMatchingOptions mo;
-  PointFeatures a, b;
-  MatchStereoPoints(cam, left, right, kl, dl, kr, dr, mo, &a);
-  MatchStereoPoints(cam, next, next_right, kn, dn, knr, dnr, mo, &b);
-  int good[2] = {0, 0}, wrong[2] = {0, 0};  // without (0) and with (1) the check
-  for (int on = 0; on < 2; ++on) {
-    mo.f2f_max_angle_deg = on ? 30.0 : 180.0;
-    const SE3 still;  // the prediction: no motion, the shift is within the search radius
-    for (const auto& [i, j] : MatchPointsFrameToFrame(cam, a, dl, b, dn, mo, &still)) {
-      const bool right_shift = (b[j].uv - a[i].uv - Eigen::Vector2d(kDu, kDv)).norm() < 1.5;
-      ++(right_shift ? good : wrong)[on];
-    }
-  }
-  std::cout << "frame to frame, correct (wrong): " << good[0] << " (" << wrong[0] << ") -> "
-            << good[1] << " (" << wrong[1] << ")" << std::endl;
-  EXPECT_GE(good[1], good[0] + 6);
-  EXPECT_LE(wrong[1] * (good[0] + wrong[0]), wrong[0] * (good[1] + wrong[1]));
-  // Turned by the predicted roll: a prediction that the image turned by 90 degrees about the
-  // optical axis expects every orientation a quarter turn further, and refuses these matches.
-  mo.f2f_max_angle_deg = 30.0;
-  const SE3 rolled(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())),
-                   Eigen::Vector3d::Zero());
-  mo.search_radius = 1000.0;  // positions predicted wrongly too: only the orientations refuse
-  int kept = 0;
-  for (const auto& [i, j] : MatchPointsFrameToFrame(cam, a, dl, b, dn, mo, &rolled))
-    kept += (b[j].uv - a[i].uv - Eigen::Vector2d(kDu, kDv)).norm() < 1.5;
-  EXPECT_LT(kept, good[1] / 4);
 }
 
 TEST(PointMatching, FrameToFrameMatchesAreConsistentWithTheTruePose) {

@@ -14,11 +14,8 @@ namespace pl_slam {
 /// A keypoint of the left image.
 struct PointFeature {
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
-  Eigen::Vector2d uv = Eigen::Vector2d::Zero();  ///< left-image pixel
-  int octave = 0;                                ///< pyramid level it was detected at
-  /// Orientation of its descriptor (cv::KeyPoint::angle), degrees; negative: not known (not
-  /// saved with a map).
-  float angle = -1.0f;
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();   ///< left-image pixel
+  int octave = 0;                                 ///< pyramid level it was detected at
   bool has_depth = false;                         ///< stereo match found and triangulated
   double disparity = 0.0;                         ///< u_left - u_right when has_depth
   Eigen::Vector3d p_c = Eigen::Vector3d::Zero();  ///< 3D point, left camera frame (has_depth)

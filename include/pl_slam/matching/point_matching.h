@@ -41,12 +41,6 @@ struct PointMatchingOptions {
   /// docs/BENCHMARKS.md, design decisions.
   double same_corner_radius = 0.0;
   double search_radius = 30.0;  ///< frame to frame with a prediction: radius, pixels
-  /// Frame to frame with a prediction: a current keypoint whose orientation differs by more
-  /// than this from the reference keypoint's, turned by the predicted roll, is no candidate
-  /// (nor a rival in the ratio test); 180 = off. Oriented descriptors make the four corners of
-  /// a rectangle (a switch plate, a door panel) look alike, so without it they refuse each
-  /// other in the ratio test.
-  double f2f_max_angle_deg = 30.0;
   /// Frame to frame (and against the last keyframe): a matched point's position in the
   /// current image is where the reference image's 11x11 patch around the reference keypoint
   /// aligns (matching/patch_alignment.h), not the current keypoint itself, when the alignment
