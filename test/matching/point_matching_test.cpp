@@ -288,6 +288,29 @@ TEST(PointMatching, RowSearchTakesCornersWhoseEdgeRunsAlongTheRow) {
   EXPECT_EQ(wrong, 0);
   EXPECT_EQ(depths(edges, &wrong), 0);
   EXPECT_EQ(wrong, 0);
+
+  // An edge slanted to the rows correlates along a row over a slowly falling peak, several
+  // columns nearly as well as the best: no depth either.
+  const auto slanted = [](int shift_u) {
+    cv::Mat img(480, 752, CV_8UC1, cv::Scalar(150));
+    const double slope = std::tan(15.0 * M_PI / 180.0);  // the edge's angle to the rows
+    for (int v = 0; v < img.rows; ++v)
+      for (int u = 0; u < img.cols; ++u)
+        if (v > 240 + slope * (u - shift_u - 376)) img.at<uint8_t>(v, u) = 175;
+    cv::Mat out;
+    cv::GaussianBlur(img, out, cv::Size(0, 0), kBlur);
+    return out;
+  };
+  const cv::Mat sl = slanted(0), sr = slanted(-kDisparity);
+  std::vector<cv::KeyPoint> on_edge;
+  for (int u = 250; u <= 500; u += 50)
+    on_edge.emplace_back(static_cast<float>(u), 240.f + std::tan(15.0 * M_PI / 180.0) * (u - 376),
+                         31.f);
+  const cv::Mat desc(static_cast<int>(on_edge.size()), 32, CV_8UC1, cv::Scalar(0));
+  PointFeatures points;
+  EXPECT_EQ(
+      MatchStereoPoints(cam, sl, sr, on_edge, desc, {}, cv::Mat(), PointMatchingOptions(), &points),
+      0);
 }
 
 TEST(PointMatching, FrameToFrameMatchesAreConsistentWithTheTruePose) {
