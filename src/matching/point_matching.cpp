@@ -161,7 +161,7 @@ struct RightSums {
 /// right columns [c0, c1]: the column of the highest zero-mean normalised cross-correlation, with
 /// a parabola through it and its neighbours. False when the best is under min_zncc, on the
 /// range's border, or not `margin` above every column more than 2 px from it (a repeated or
-/// edge-like patch; a sharp peak's falling flanks excepted), or when the left patch is flat.
+/// edge-like patch), or when the left patch is flat.
 bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u0, int v0, int c0,
                int c1, double min_zncc, double margin, double* ur) {
   constexpr int kHalf = 5, kN = 2 * kHalf + 1, kMaxRange = 1024;
@@ -215,23 +215,8 @@ bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u
     }
   }
   if (best_z < min_zncc || best == 0 || best == n - 1) return false;
-  // A corner's peak is wide along its row (its edge along the row still half matches a few
-  // pixels off), so the columns on its falling flanks are the same match, not rivals, when it
-  // is a peak: on both sides the flank falls under best - margin within the patch's half
-  // width. A slower fall (an edge slanted to the row: one more column matches nearly as well)
-  // or an edge's flat ridge (whose noise ends a flank at once) leaves them rivals.
-  int lo = best, hi = best;
-  while (lo > 0 && z[lo - 1] <= z[lo]) --lo;
-  while (hi < n - 1 && z[hi + 1] <= z[hi]) ++hi;
-  const double rival_level = best_z - margin;
-  int a = best, b = best;
-  while (a > lo && z[a] >= rival_level) --a;
-  while (b < hi && z[b] >= rival_level) ++b;
-  if (!(z[a] < rival_level && z[b] < rival_level && best - a <= kHalf && b - best <= kHalf))
-    lo = hi = best;
   for (int c = 0; c < n; ++c)
-    if ((c < std::min(lo, best - 2) || c > std::max(hi, best + 2)) && z[c] > rival_level)
-      return false;
+    if (std::abs(c - best) > 2 && z[c] > best_z - margin) return false;
   const double denom = z[best - 1] - 2.0 * z[best] + z[best + 1];
   const double delta =
       denom < 0.0 ? std::clamp(0.5 * (z[best - 1] - z[best + 1]) / denom, -0.5, 0.5) : 0.0;

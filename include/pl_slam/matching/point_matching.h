@@ -28,10 +28,7 @@ struct PointMatchingOptions {
   /// points: a left keypoint left without a partner (the right image's detector missed that
   /// corner, common at low contrast) is looked for along its row by zero-mean normalised
   /// cross-correlation (ZNCC) of an 11x11 patch; accepted when the best column reaches
-  /// row_search_min_zncc and beats by row_search_margin every column more than 2 px away,
-  /// except those on its own peak's falling flanks when they fall under that margin within 5 px
-  /// on both sides (a corner's peak is wide along the row, where its horizontal edge still half
-  /// matches; an edge's ridge or a second peak is a rival).
+  /// row_search_min_zncc and beats every column more than 2 px away by row_search_margin.
   int row_search_below = 150;
   double row_search_min_zncc = 0.9;  ///< see row_search_below; 0 = no row search
   double row_search_margin = 0.2;    ///< see row_search_below
