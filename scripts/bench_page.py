@@ -19,7 +19,8 @@ Runs, in this order (outputs under --out, default output/bench_page):
             (--realtime, mapping and loop closing in their threads), two runs each, one at a time;
   family:   the low-texture family (--family lowtex defaults), then again rendered dim and
             bright (--generate-args '--exposure dim|bright', points + lines) and with low
-            detector thresholds (STRESS, points + lines), --jobs runs at a time; the line
+            detector thresholds (STRESS, points + lines), and at world seeds no tuning used
+            (FRESH_SEEDS, points + lines), --jobs runs at a time; the line
             detectors' recall and precision against the family's structural edges
             (scripts/bench_page_lines.py);
   street:   the street family as slam and as VO, points and points + lines, --jobs runs at a
@@ -47,6 +48,8 @@ EXPOSURES = ("dim", "bright")  # pl_slam_generate --exposure presets the family 
 # low-contrast line search's Canny thresholds for every segment.
 STRESS = ("tracker.points.fast_threshold=7,tracker.points.min_fast_threshold=7,"
           "tracker.lines.canny_low=15,tracker.lines.canny_high=30")
+# World seeds of the low-texture family that no tuning used: every layout rendered anew.
+FRESH_SEEDS = "4,5,6"
 # ATE targets of the low-texture family, % of the path (issue: textured and bare layouts).
 ATE_TARGET_PCT = {"textured": 0.05, "bare": 0.3}
 
@@ -260,6 +263,10 @@ def make_page(args, bo):
         st_args.out, st_args.modes = os.path.join(out, "family_stress"), "points_lines"
         st_args.set = ",".join(filter(None, [args.set, STRESS]))
         exposure["stress"] = bo.run_family(st_args)[0]
+        fr_args = argparse.Namespace(**vars(fam_args))
+        fr_args.out, fr_args.modes = os.path.join(out, "family_fresh"), "points_lines"
+        fr_args.seeds = FRESH_SEEDS
+        exposure["fresh"] = bo.run_family(fr_args)[0]
         lines = bench_page_lines.run_lines(bo, out, jobs)
         took["family"] = minutes(times["family"])
     else:
@@ -506,6 +513,7 @@ def write_page(args, bo, t0, t1, load, seqs, main, mode_seqs, acc, speed, skippe
     add("")
     L.extend(exposure_lines(bo, exposure))
     L.extend(stress_lines(bo, exposure))
+    L.extend(fresh_lines(bo, exposure))
     L.extend(bench_page_lines.lines_lines(bo, lines))
 
     # (g) the street family.
@@ -604,6 +612,45 @@ def stress_lines(bo, exposure):
         L.append("Over twice the default ATE: %s." % "; ".join(
             "%s %s s%d %.4f against %.4f m" % (r["layout"], r["variant"], r["seed"], r["ate"],
                                                n["ate"]) for r, n in over))
+        L.append("")
+    return L
+
+
+def fresh_lines(bo, exposure):
+    """The low-texture family at world seeds no tuning used, against seeds 1-3 (Markdown)."""
+    L = ["### Fresh seeds", ""]
+    if not exposure or "fresh" not in exposure or "normal" not in exposure:
+        return L + ["Not measured in this run.", ""]
+    L.append("Every layout generated again from world seeds %s (no option was tuned on them), "
+             "points + lines, otherwise as above; seeds 1-3: the runs above. ATE target: %s%% of "
+             "the path on textured runs, %s%% on bare ones." % (
+                 FRESH_SEEDS, ATE_TARGET_PCT["textured"], ATE_TARGET_PCT["bare"]))
+    L.append("")
+    L.append("| set | variant | seeds | runs | failed | lost frames (total) | runs with loss | "
+             "median ATE m | median ATE % | runs over the ATE target |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|")
+    misses = []
+    for set_name in ("tuning", "held-out"):
+        for variant in ("textured", "bare"):
+            for label, runs in (("1-3", exposure["normal"]), (FRESH_SEEDS, exposure["fresh"])):
+                rs = [r for r in runs if r["set"] == set_name and r["variant"] == variant]
+                ok = [r for r in rs if not r["failed"]]
+                over = [r for r in rs
+                        if r["failed"] or not r["ate_pct"] <= ATE_TARGET_PCT[variant]]
+                if runs is exposure["fresh"]:
+                    misses.extend(over)
+                L.append("| %s | %s | %s | %d | %d | %d | %d | %.3f | %.2f | %d |" % (
+                    set_name, variant, label, len(rs), len(rs) - len(ok),
+                    sum(r["lost"] for r in ok) + sum(r["frames"] or 0 for r in rs if r["failed"]),
+                    sum(1 for r in rs if r["lost"] > 0 or r["failed"]),
+                    bo.median([r["ate"] for r in ok]), bo.median([r["ate_pct"] for r in ok]),
+                    len(over)))
+    L.append("")
+    if misses:
+        L.append("Fresh-seed runs over the ATE target (lost frames, ATE): %s." % "; ".join(
+            "%s %s s%d %s" % (r["layout"], r["variant"], r["seed"], "failed" if r["failed"] else
+                              "%d, %.3f m (%.2f%%)" % (r["lost"], r["ate"], r["ate_pct"]))
+            for r in sorted(misses, key=lambda r: (r["layout"], r["variant"], r["seed"]))))
         L.append("")
     return L
 
