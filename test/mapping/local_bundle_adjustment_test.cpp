@@ -42,10 +42,32 @@ LineFeature ObserveLine(const StereoCamera& cam, const SE3& T_w_c, const Eigen::
   return f;
 }
 
+using Poses = std::vector<SE3, Eigen::aligned_allocator<SE3>>;
+
+/// Keyframe k of a walk straight ahead, 5 cm a step; its pose is appended to `truth`.
+std::shared_ptr<Keyframe> WalkKeyframe(int k, Poses* truth) {
+  const SE3 T(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.0, 0.05 * k));
+  truth->push_back(T);
+  auto kf = std::make_shared<Keyframe>();
+  kf->id = k;
+  kf->frame_index = k;
+  kf->parent = k == 0 ? kNoId : k - 1;
+  kf->T_w_c = T;
+  return kf;
+}
+
+/// Keyframe k's point i observes the landmark `*id` at p_w (made there when it is new).
+void ObservePoint(Map* map, const Eigen::Vector3d& p_w, KeyframeId k, int i, LandmarkId* id) {
+  if (*id == kNoId)
+    *id = map->AddPointLocked(p_w, k, i);
+  else
+    map->AddPointObservationLocked(*id, k, i);
+}
+
 struct Scene {
   mapping::Context ctx;
   Map map;
-  std::vector<SE3, Eigen::aligned_allocator<SE3>> truth;  // per keyframe
+  Poses truth;  // per keyframe
   LandmarkId wrong = kNoId;
 };
 
@@ -62,13 +84,8 @@ void Build(Scene* s) {
   std::vector<LandmarkId> ids(wall.size(), kNoId);
   auto lock = s->map.Lock();
   for (int k = 0; k < 5; ++k) {
-    const SE3 T(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.0, 0.05 * k));
-    s->truth.push_back(T);
-    auto kf = std::make_shared<Keyframe>();
-    kf->id = k;
-    kf->frame_index = k;
-    kf->parent = k == 0 ? kNoId : k - 1;
-    kf->T_w_c = T;
+    auto kf = WalkKeyframe(k, &s->truth);
+    const SE3 T = kf->T_w_c;
     const size_t seen = k < 4 ? wall.size() : 8;
     for (size_t i = 0; i < seen; ++i)
       kf->features.points.push_back(Observe(s->ctx.camera, T, wall[i]));
@@ -78,12 +95,8 @@ void Build(Scene* s) {
     const int n = static_cast<int>(kf->features.points.size());
     kf->features.point_descriptors = cv::Mat::zeros(n, 32, CV_8U);
     s->map.AddKeyframeLocked(kf);
-    for (size_t i = 0; i < seen; ++i) {
-      if (ids[i] == kNoId)
-        ids[i] = s->map.AddPointLocked(wall[i], k, static_cast<int>(i));
-      else
-        s->map.AddPointObservationLocked(ids[i], k, static_cast<int>(i));
-    }
+    for (size_t i = 0; i < seen; ++i)
+      ObservePoint(&s->map, wall[i], k, static_cast<int>(i), &ids[i]);
     if (k == 3) s->wrong = s->map.AddPointLocked(wrong_w, k, n - 1);
     if (k == 4) s->map.AddPointObservationLocked(s->wrong, k, n - 1);
   }
@@ -113,7 +126,7 @@ TEST(LocalBundleAdjustment, AFarObservationOfTheNewKeyframeIsLeftOutAndRemoved) 
 struct LineScene {
   mapping::Context ctx;
   Map map;
-  std::vector<SE3, Eigen::aligned_allocator<SE3>> truth;
+  Poses truth;
   std::vector<LandmarkId> strip_lines;
   LandmarkId door = kNoId;
 };
@@ -137,13 +150,8 @@ void BuildLines(LineScene* s) {
   std::vector<LandmarkId> point_ids(points.size(), kNoId), line_ids(lines.size(), kNoId);
   auto lock = s->map.Lock();
   for (int k = 0; k < 5; ++k) {
-    const SE3 T(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.0, 0.0, 0.05 * k));
-    s->truth.push_back(T);
-    auto kf = std::make_shared<Keyframe>();
-    kf->id = k;
-    kf->frame_index = k;
-    kf->parent = k == 0 ? kNoId : k - 1;
-    kf->T_w_c = T;
+    auto kf = WalkKeyframe(k, &s->truth);
+    const SE3 T = kf->T_w_c;
     const size_t seen_points = k < 4 ? points.size() : 8;
     for (size_t i = 0; i < seen_points; ++i)
       kf->features.points.push_back(Observe(s->ctx.camera, T, points[i]));
@@ -155,12 +163,8 @@ void BuildLines(LineScene* s) {
               : ObserveLine(s->ctx.camera, T, fifth.first, fifth.second));
     kf->features.line_descriptors = cv::Mat::zeros(5, 32, CV_8U);
     s->map.AddKeyframeLocked(kf);
-    for (size_t i = 0; i < seen_points; ++i) {
-      if (point_ids[i] == kNoId)
-        point_ids[i] = s->map.AddPointLocked(points[i], k, static_cast<int>(i));
-      else
-        s->map.AddPointObservationLocked(point_ids[i], k, static_cast<int>(i));
-    }
+    for (size_t i = 0; i < seen_points; ++i)
+      ObservePoint(&s->map, points[i], k, static_cast<int>(i), &point_ids[i]);
     for (size_t i = 0; i < lines.size(); ++i) {
       if (line_ids[i] == kNoId)
         line_ids[i] = s->map.AddLineLocked(lines[i].first, lines[i].second, k, static_cast<int>(i));
