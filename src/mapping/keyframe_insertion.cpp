@@ -100,7 +100,9 @@ bool CopyPrevious(const Context& ctx, PreviousKeyframe* prev) {
 
 /// Matches the new keyframe against the previous one and refines its pose from the previous
 /// keyframe's 3D features; keeps only the inlier matches. Line matches where neither segment
-/// has a 3D position (no landmark, no stereo depth) go to `depthless_matches`.
+/// has a 3D position (no landmark, no stereo depth) go to `depthless_matches`. When the
+/// estimate is not used (too few inliers, too large a correction), a match is kept only if it
+/// also fits the tracked pose: an estimate that fails may have bent to fit a wrong match.
 void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Keyframe* kf,
                            std::vector<std::pair<int, int>>* point_matches,
                            std::vector<std::pair<int, int>>* line_matches,
@@ -151,18 +153,34 @@ void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Key
   const MotionEstimate est =
       EstimateMotion(ctx.camera, pm, lm, kf->T_w_c.inverse(), ctx.front_end.motion);
   if (!est.success) return;  // no reliable matches: tracking's pose and associations only
-  for (size_t k = 0; k < pm_used.size(); ++k)
-    if (est.point_inlier[k]) point_matches->push_back(pm_used[k]);
-  for (size_t k = 0; k < lm_used.size(); ++k)
-    if (est.line_inlier[k]) line_matches->push_back(lm_used[k]);
-  if (!ctx.options.refine_against_previous ||
-      est.point_inliers + est.line_inliers < ctx.options.refine_min_inliers)
-    return;
   const SE3 T_w_new = est.T_cur_prev.inverse();
   const SE3 correction = T_w_new.inverse() * kf->T_w_c;
-  if (T_w_new.IsFinite() && correction.translation().norm() < ctx.options.refine_max_correction &&
-      correction.RotationAngle() < 0.1)
-    kf->T_w_c = T_w_new;
+  const bool trusted = ctx.options.refine_against_previous &&
+                       est.point_inliers + est.line_inliers >= ctx.options.refine_min_inliers &&
+                       T_w_new.IsFinite() &&
+                       correction.translation().norm() < ctx.options.refine_max_correction &&
+                       correction.RotationAngle() < 0.1;
+  // At the tracked pose, a match within the estimator's widest outlier gate fits.
+  const SE3 T_track = kf->T_w_c.inverse();
+  const MotionEstimatorOptions& mo = ctx.front_end.motion;
+  const double gate2 = mo.outlier_max_px * mo.outlier_max_px;
+  auto fits = [&](double weight, const Eigen::Vector2d& r) {
+    return weight * r.squaredNorm() <= gate2;
+  };
+  Eigen::Vector2d r;
+  for (size_t k = 0; k < pm_used.size(); ++k)
+    if (est.point_inlier[k] &&
+        (trusted || (PointResidualAndJacobian(ctx.camera, T_track, pm[k].P_prev, pm[k].uv_cur,
+                                              mo.min_depth, &r, nullptr) &&
+                     fits(pm[k].weight, r))))
+      point_matches->push_back(pm_used[k]);
+  for (size_t k = 0; k < lm_used.size(); ++k)
+    if (est.line_inlier[k] &&
+        (trusted || (LineResidualAndJacobian(ctx.camera, T_track, lm[k].P_prev, lm[k].Q_prev,
+                                             lm[k].l_cur, mo.min_depth, &r, nullptr) &&
+                     fits(lm[k].weight, r))))
+      line_matches->push_back(lm_used[k]);
+  if (trusted) kf->T_w_c = T_w_new;
 }
 
 /// Projects the local map's landmarks that the keyframe does not observe yet into it and

@@ -301,6 +301,22 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
       static_cast<int>(std::count(disparity_outlier.begin(), disparity_outlier.end(), 1));
   if (summary.success && options.second_pass &&
       summary.point_outliers + summary.line_outliers + disparity_outliers > 0) {
+    // A free pose left with fewer inlier observations than fix a pose went where its own
+    // observations do not fit (pulled by a wrong one, or by landmarks the others moved): it goes
+    // back to where it started and is held there.
+    constexpr int kMinPoseInliers = 3;
+    std::vector<int> pose_inliers(np, 0);
+    for (size_t k = 0; k < p.point_obs.size(); ++k)
+      if (point_blocks[k] && !summary.point_outlier[k]) ++pose_inliers[p.point_obs[k].pose];
+    for (size_t k = 0; k < p.line_obs.size(); ++k)
+      if (line_blocks[k] && !summary.line_outlier[k]) ++pose_inliers[p.line_obs[k].pose];
+    for (int i = 0; i < np; ++i) {
+      if (!pose_used[i] || ceres_problem.IsParameterBlockConstant(pose_params[i].data()) ||
+          pose_inliers[i] >= kMinPoseInliers)
+        continue;
+      SE3ToParams(p.poses[i].T_w_c.inverse(), pose_params[i].data());
+      ceres_problem.SetParameterBlockConstant(pose_params[i].data());
+    }
     for (size_t k = 0; k < point_blocks.size(); ++k) {
       if (point_blocks[k] && summary.point_outlier[k]) {
         ceres_problem.RemoveResidualBlock(point_blocks[k]);

@@ -2,6 +2,7 @@
 // return close to the truth, gross outliers must be flagged, fixed poses must not move.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 #include <string>
 
@@ -214,8 +215,8 @@ TEST(LineExtentTest, AnchorRestoresTheObservedExtent) {
 }
 
 TEST(BundleAdjustmentTest, FlagsGrossOutliers) {
-  // Single pass (the default): the outliers are flagged after the solve (the mapper removes
-  // them from the map). Two passes: the second solve without them recovers the poses.
+  // One pass: the outliers are flagged after the solve (the mapper removes them from the map).
+  // Two passes (the default): the second solve without them recovers the poses.
   for (const bool second_pass : {false, true}) {
     std::mt19937 rng(2);
     const StereoCamera cam = Camera();
@@ -235,6 +236,51 @@ TEST(BundleAdjustmentTest, FlagsGrossOutliers) {
     EXPECT_LE(summary.point_outliers, static_cast<int>(bad.size() + 0.05 * p.point_obs.size()));
     EXPECT_LT(MaxPoseError(p, scene), second_pass ? 0.01 : 0.05) << "second_pass " << second_pass;
   }
+}
+
+// The newest pose keeps five observations, all wrong: a common 40 px shift (a keyframe
+// associated with the wrong stretch of a repeated pattern) and up to 25 px each. The first pass
+// turns the pose 6 deg towards the shift, where two of the five fit: too few to fix a pose, and
+// the second pass would fit the pose to those two (0.22 m, 4.7 deg off). It goes back to where
+// it started instead, where none of the five fits. The other poses still solve.
+TEST(BundleAdjustmentTest, APoseLeftWithoutInliersReturnsToItsStart) {
+  std::mt19937 rng(4);
+  const StereoCamera cam = Camera();
+  const Scene scene = MakeScene(&rng);
+  BaProblem p = Observe(scene, cam, &rng, 0.3);
+  p.poses[0].fixed = true;
+  const int last = static_cast<int>(p.poses.size()) - 1;
+  const SE3 start = p.poses[last].T_w_c;
+  std::uniform_real_distribution<double> wrong(-25.0, 25.0);
+  std::vector<BaPointObservation, Eigen::aligned_allocator<BaPointObservation>> kept;
+  int mine = 0;
+  for (const BaPointObservation& o : p.point_obs) {
+    if (o.pose != last) {
+      kept.push_back(o);
+    } else if (mine < 5) {
+      ++mine;
+      kept.push_back(o);
+      const Eigen::Vector2d shift(40.0 + wrong(rng), wrong(rng));
+      kept.back().uv += shift;
+      kept.back().u_right += shift.x();
+    }
+  }
+  p.point_obs = kept;
+  p.line_obs.erase(std::remove_if(p.line_obs.begin(), p.line_obs.end(),
+                                  [&](const BaLineObservation& o) { return o.pose == last; }),
+                   p.line_obs.end());
+  const BaSummary summary = SolveBundleAdjustment(cam, BundleAdjustmentOptions(), &p);
+  ASSERT_TRUE(summary.success);
+  int outliers = 0;
+  for (size_t k = 0; k < p.point_obs.size(); ++k)
+    if (p.point_obs[k].pose == last) outliers += summary.point_outlier[k];
+  EXPECT_EQ(outliers, 5);
+  const SE3 moved = start.inverse() * p.poses[last].T_w_c;
+  EXPECT_LT(moved.translation().norm(), 1e-9);
+  EXPECT_LT(moved.RotationAngle(), 1e-9);
+  for (int k = 1; k < last; ++k)
+    EXPECT_LT((p.poses[k].T_w_c.translation() - scene.poses[k].translation()).norm(), 0.01)
+        << "pose " << k;
 }
 
 TEST(BundleAdjustmentTest, OutlierSigmaScalesTheOutlierGates) {
