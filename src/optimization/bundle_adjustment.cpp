@@ -301,9 +301,9 @@ BaSummary SolveBundleAdjustment(const StereoCamera& camera, const BundleAdjustme
       static_cast<int>(std::count(disparity_outlier.begin(), disparity_outlier.end(), 1));
   if (summary.success && options.second_pass &&
       summary.point_outliers + summary.line_outliers + disparity_outliers > 0) {
-    // A free pose left with fewer inlier observations than fix a pose went where its own
-    // observations do not fit (pulled by a wrong one, or by landmarks the others moved): it goes
-    // back to where it started and is held there.
+    // A free pose left with fewer inlier observations than it takes to fix a pose went where its
+    // own observations do not fit (pulled by a wrong one, or by landmarks the others moved): it
+    // goes back to where it started and is held there.
     constexpr int kMinPoseInliers = 3;
     std::vector<int> pose_inliers(np, 0);
     for (size_t k = 0; k < p.point_obs.size(); ++k)
