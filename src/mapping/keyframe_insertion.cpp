@@ -101,8 +101,9 @@ bool CopyPrevious(const Context& ctx, PreviousKeyframe* prev) {
 /// Matches the new keyframe against the previous one and refines its pose from the previous
 /// keyframe's 3D features; keeps only the inlier matches. Line matches where neither segment
 /// has a 3D position (no landmark, no stereo depth) go to `depthless_matches`. When the
-/// estimate is not used (too few inliers, too large a correction), a match is kept only if it
-/// also fits the tracked pose: an estimate that fails may have bent to fit a wrong match.
+/// estimate is not used (too few inliers, too large a correction, refinement off), a match is kept
+/// only if it also fits the tracked pose: an estimate that fails may have bent to fit a wrong
+/// match.
 void RefineAgainstPrevious(const Context& ctx, const PreviousKeyframe& prev, Keyframe* kf,
                            std::vector<std::pair<int, int>>* point_matches,
                            std::vector<std::pair<int, int>>* line_matches,
