@@ -35,7 +35,7 @@ DEPTH_FRAMES = 10  # frames per drive scored by pl_slam_bench_depth (its default
 LIVE = ("street_straight", 1)
 ATE = "%.4f"  # metres
 FEATURES = ("points, one surface", "points near an occlusion", "line endpoints, steep",
-            "line endpoints, shallow")
+            "line endpoints, shallow", "line endpoints, flat")
 
 
 def fmt(v, pattern):

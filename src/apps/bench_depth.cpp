@@ -47,12 +47,20 @@ constexpr char kUsage[] =
     "  --csv FILE          every scored feature: type,z_gt,d_gt,d_meas,u,v,angle_deg\n";
 
 // Feature types, one table each.
-enum Kind { kPointInterior, kPointBoundary, kEndpointSteep, kEndpointShallow, kKinds };
+enum Kind {
+  kPointInterior,
+  kPointBoundary,
+  kEndpointSteep,
+  kEndpointShallow,
+  kEndpointJunction,
+  kKinds
+};
 const char* const kKindNames[kKinds] = {
     "points, one surface within the 11x11 refinement patch",
     "points near an occlusion boundary (GT: the surface within 1.5 px closest to the measurement)",
     "line endpoints, steep segments (> 45 deg from the rows)",
-    "line endpoints, shallow segments (15-45 deg from the rows)"};
+    "line endpoints, shallow segments (15-45 deg from the rows)",
+    "line endpoints, flat segments (< 15 deg from the rows: depth from their L junctions)"};
 
 // Ground truth seen from one left image: the true (geometric) disparity at a sub-pixel
 // position of each surface seen at or near it.
@@ -221,7 +229,9 @@ void ScorePair(const pl_slam::StereoCamera& cam, const cv::Mat& left, const cv::
   cv::Mat lld, lrd;
   ldet.Detect(left, &ll, &lld);
   ldet.Detect(right, &lr, &lrd);
-  pl_slam::MatchStereoLines(cam, &ll, lld, lr, lrd, pl_slam::LineMatchingOptions());
+  const pl_slam::LineMatchingOptions lmo;
+  const double min_stereo_deg = lmo.min_stereo_angle_deg;
+  pl_slam::MatchStereoLines(cam, &ll, lld, lr, lrd, lmo);
   ++t->frames;
 
   const double fb = cam.fx * cam.baseline;
@@ -267,7 +277,11 @@ void ScorePair(const pl_slam::StereoCamera& cam, const cv::Mat& left, const cv::
     if (!pl_slam::bench::FitEndpointDisparities(td, line_tolerance, 5, &g0, &g1)) continue;
     if (!(g0 > 0 && g1 > 0)) continue;
     ++t->lines_scored;
-    const Kind k = pl_slam::bench::IsSteep(l.angle) ? kEndpointSteep : kEndpointShallow;
+    // Flatter than the matcher's row-crossing limit: depth from the segment's junctions.
+    const bool flat = std::abs(std::sin(l.angle)) < std::sin(min_stereo_deg * M_PI / 180.0);
+    const Kind k = pl_slam::bench::IsSteep(l.angle) ? kEndpointSteep
+                   : flat                           ? kEndpointJunction
+                                                    : kEndpointShallow;
     const double deg = l.angle * 180.0 / M_PI;
     t->Add(k, {cam.TrueDisparity(fb / l.P_c.z()), g0, fb / g0}, l.s, deg);
     t->Add(k, {cam.TrueDisparity(fb / l.Q_c.z()), g1, fb / g1}, l.e, deg);

@@ -79,6 +79,95 @@ std::vector<std::pair<int, int>> MutualMatches(const std::vector<Best>& query_be
 // Where the normalised infinite line `l` crosses row v (|l(0)| must be clearly non-zero).
 inline double ColumnAtRow(const Eigen::Vector3d& l, double v) { return -(l(1) * v + l(2)) / l(0); }
 
+// The disparity at endpoint `end` of a flat segment `f`, from a segment with depth that ends
+// where `f` ends (an L junction: a frame's corner, a lintel on its jamb). Both segments must
+// cross at kMinJunctionAngleDeg or more, and their crossing lie within `radius` of `end` and of
+// an endpoint of the other segment; a segment that runs on past the crossing may be an
+// occluding edge in front of `f`, so a T junction gives no depth. False when no segment or
+// two that disagree by more than a pixel qualify.
+bool DisparityAtJunction(const LineFeatures& lines, const Points2d& disparities,
+                         const LineFeature& f, const Eigen::Vector2d& end, double radius,
+                         double* disparity) {
+  constexpr double kMinJunctionAngleDeg = 30.0;
+  const double min_sin = std::sin(Deg2Rad(kMinJunctionAngleDeg));
+  double best_gap = radius * 2.0 + 1.0;
+  bool found = false;
+  for (std::size_t k = 0; k < lines.size(); ++k) {
+    const LineFeature& m = lines[k];
+    if (!m.has_depth || &m == &f) continue;
+    if (std::abs(std::sin(f.angle - m.angle)) < min_sin) continue;
+    const Eigen::Vector3d x = f.l.cross(m.l);
+    if (std::abs(x.z()) < 1e-12) continue;
+    const Eigen::Vector2d X = x.head<2>() / x.z();
+    const double to_end = (X - end).norm();
+    const double to_m = std::min((X - m.s).norm(), (X - m.e).norm());
+    if (to_end > radius || to_m > radius) continue;
+    const double t = std::clamp((X - m.s).dot(m.e - m.s) / (m.length * m.length), 0.0, 1.0);
+    const double d = disparities[k].x() + t * (disparities[k].y() - disparities[k].x());
+    if (found && std::abs(d - *disparity) > 1.0) return false;
+    if (to_end + to_m < best_gap) {
+      best_gap = to_end + to_m;
+      *disparity = d;
+    }
+    found = true;
+  }
+  return found;
+}
+
+// Depth for flat segments (`flat`: too close to the rows for the row crossing), which the
+// epipolar geometry cannot give: where both ends are L junctions with segments that have
+// depth, the endpoints take those segments' disparities there. Kept only when the right image
+// shows a segment of the same direction between the same junctions (both endpoints within
+// junction_max_px of where the disparities put them, a descriptor within max_distance) that no
+// other left segment took. Returns the number of segments given depth.
+int JunctionDepth(const StereoCamera& camera, LineFeatures* left, const cv::Mat& left_desc,
+                  const LineFeatures& right, const cv::Mat& right_desc,
+                  const LineMatchingOptions& options, const std::vector<char>& flat,
+                  const Points2d& disparities, std::vector<char>* right_taken,
+                  std::vector<int>* right_of_left) {
+  const double radius = options.junction_max_px;
+  const double max_angle = Deg2Rad(options.stereo_max_angle_deg);
+  LineFeatures& lines = *left;
+  // Junctions are looked up among the segments the stereo match gave depth, not among those
+  // this pass adds.
+  const LineFeatures with_depth = lines;
+  int added = 0;
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    LineFeature& f = lines[i];
+    if (!flat[i] || f.has_depth) continue;
+    double d_s = 0.0, d_e = 0.0;
+    if (!DisparityAtJunction(with_depth, disparities, with_depth[i], f.s, radius, &d_s) ||
+        !DisparityAtJunction(with_depth, disparities, with_depth[i], f.e, radius, &d_e))
+      continue;
+    const double t_s = camera.TrueDisparity(d_s), t_e = camera.TrueDisparity(d_e);
+    if (t_s < options.min_disparity || t_e < options.min_disparity) continue;
+    if (t_s > options.max_disparity || t_e > options.max_disparity) continue;
+    if (std::abs(d_s - d_e) > options.max_disparity_gradient * f.length) continue;
+    const Eigen::Vector2d s_right(f.s.x() - d_s, f.s.y()), e_right(f.e.x() - d_e, f.e.y());
+    const uint8_t* dl = left_desc.ptr<uint8_t>(static_cast<int>(i));
+    int best = -1, best_distance = options.max_distance + 1;
+    for (std::size_t j = 0; j < right.size(); ++j) {
+      const LineFeature& r = right[j];
+      if ((*right_taken)[j] || AngleDiff(f.angle, r.angle) > max_angle) continue;
+      if ((r.s - s_right).norm() > radius || (r.e - e_right).norm() > radius) continue;
+      const int d = LineDescriptorDistance(dl, right_desc.ptr<uint8_t>(static_cast<int>(j)));
+      if (d < best_distance) {
+        best_distance = d;
+        best = static_cast<int>(j);
+      }
+    }
+    if (best < 0) continue;
+    f.P_c = camera.BackProject(f.s.x(), f.s.y(), d_s);
+    f.Q_c = camera.BackProject(f.e.x(), f.e.y(), d_e);
+    f.has_depth = true;
+    f.depth_from_junctions = true;
+    (*right_taken)[best] = 1;
+    if (right_of_left) (*right_of_left)[i] = best;
+    ++added;
+  }
+  return added;
+}
+
 }  // namespace
 
 std::string LineMatchingOptions::Validate() const {
@@ -112,6 +201,8 @@ std::string LineMatchingOptions::Validate() const {
     os << "f2f_max_line_distance=" << f2f_max_line_distance << " must be in (0, 1000]";
   } else if (!in(f2f_max_gap, 0.0, 1000.0)) {
     os << "f2f_max_gap=" << f2f_max_gap << " must be in [0, 1000]";
+  } else if (!in(junction_max_px, 0.0, 20.0)) {
+    os << "junction_max_px=" << junction_max_px << " must be in [0, 20]";
   }
   return os.str();
 }
@@ -138,6 +229,7 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
   const int nr = static_cast<int>(right.size());
   for (LineFeature& f : *left) {
     f.has_depth = false;
+    f.depth_from_junctions = false;
     f.P_c.setZero();
     f.Q_c.setZero();
   }
@@ -187,14 +279,22 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
   }
 
   int matched = 0;
+  std::vector<char> right_taken(nr, 0);
   for (const auto& [i, j] :
        MutualMatches(left_best, right_best, options.stereo_ratio, options.max_distance)) {
     LineFeature& l = (*left)[i];
     l.P_c = camera.BackProject(l.s.x(), l.s.y(), best_disp[i].x());
     l.Q_c = camera.BackProject(l.e.x(), l.e.y(), best_disp[i].y());
     l.has_depth = true;
+    right_taken[j] = 1;
     if (right_of_left) (*right_of_left)[i] = j;
     ++matched;
+  }
+  if (options.junction_max_px > 0.0) {
+    std::vector<char> flat(nl);
+    for (int i = 0; i < nl; ++i) flat[i] = !steep((*left)[i]);
+    matched += JunctionDepth(camera, left, left_desc, right, right_desc, options, flat, best_disp,
+                             &right_taken, right_of_left);
   }
   return matched;
 }

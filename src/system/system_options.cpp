@@ -156,7 +156,11 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.line_matching.max_disparity_gradient", &lm.max_disparity_gradient,
         "stereo: |d_s - d_e| / length");
   t.Add("tracker.line_matching.min_stereo_angle_deg", &lm.min_stereo_angle_deg,
-        "stereo: flatter segments get no depth, deg");
+        "stereo: flatter segments get no depth (but see junction_max_px), deg");
+  t.Add("tracker.line_matching.junction_max_px", &lm.junction_max_px,
+        "stereo: a flatter segment whose both ends are L junctions with segments that have "
+        "depth takes their disparities there, when the right image shows it between the same "
+        "junctions within this distance, px (0: off)");
   t.Add("tracker.line_matching.f2f_ratio", &lm.f2f_ratio, "frame-to-frame ratio test");
   t.Add("tracker.line_matching.f2f_max_angle_deg", &lm.f2f_max_angle_deg,
         "frame to frame: largest direction difference, deg");

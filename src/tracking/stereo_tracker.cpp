@@ -175,8 +175,11 @@ struct StereoTracker::Impl {
       m.Q_prev = lr.Q_c;
       m.l_cur = cur.lines[j].l;
       m.weight = options.line_weight;
-      // Endpoint disparities come from crossing the image rows: the flatter, the noisier.
-      m.depth_noise = options.depth_noise / std::max(std::abs(std::sin(lr.angle)), 0.1);
+      // Endpoint disparities come from crossing the image rows: the flatter, the noisier;
+      // those taken at junctions are the steeper segments' there.
+      m.depth_noise = lr.depth_from_junctions
+                          ? options.depth_noise
+                          : options.depth_noise / std::max(std::abs(std::sin(lr.angle)), 0.1);
       lm.push_back(m);
       const LineFeature& lc = cur.lines[j];
       lines_cur_P.push_back(lc.has_depth ? lc.P_c : kUnknown);

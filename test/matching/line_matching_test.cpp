@@ -113,12 +113,14 @@ TEST(MatchStereoLines, TriangulatesDrawnRectanglesAccurately) {
   const StereoResult r =
       DetectAndMatch(cam, RenderQuads(cam, quads, false, 1), RenderQuads(cam, quads, true, 2));
   const double min_sin = std::sin(LineMatchingOptions().min_stereo_angle_deg * kPi / 180.0);
-  int steep = 0, with_depth = 0, accurate = 0;
+  int steep = 0, with_depth = 0, flat_with_depth = 0, accurate = 0;
   for (const LineFeature& f : r.left) {
     const bool is_steep = std::abs(std::sin(f.angle)) >= min_sin;
     steep += is_steep;
     if (!f.has_depth) continue;
-    EXPECT_TRUE(is_steep) << "a near-horizontal segment got depth";
+    // Flat segments take depth at the rectangles' corners (junction_max_px), and must be as
+    // accurate as the rest.
+    flat_with_depth += !is_steep;
     ++with_depth;
     // Both endpoints on a true 3D edge: within 2% of their depth (0.2 px of disparity at
     // 2.5 m is 0.5%, at 6 m 1.2%).
@@ -134,7 +136,9 @@ TEST(MatchStereoLines, TriangulatesDrawnRectanglesAccurately) {
   }
   EXPECT_EQ(with_depth, r.matched);
   EXPECT_GE(steep, 10);
-  EXPECT_GE(with_depth, steep * 8 / 10) << "most steep edges should be triangulated";
+  EXPECT_GE(with_depth - flat_with_depth, steep * 8 / 10)
+      << "most steep edges should be triangulated";
+  EXPECT_GE(flat_with_depth, 3) << "the fronto-parallel rectangles' top and bottom edges";
   EXPECT_EQ(accurate, with_depth);
 }
 
@@ -149,8 +153,12 @@ TEST(MatchStereoLines, NearHorizontalSegmentsStay2D) {
     const std::vector<Quad> quads = {{{c - 1.2 * d - 0.15 * n, c + 1.2 * d - 0.15 * n,
                                        c + 1.2 * d + 0.15 * n, c - 1.2 * d + 0.15 * n},
                                       30}};
-    const StereoResult r =
-        DetectAndMatch(cam, RenderQuads(cam, quads, false, 3), RenderQuads(cam, quads, true, 4));
+    // The row crossing alone: the band's short ends are in view, and its long sides would take
+    // depth at their corners (FlatSegmentsTakeDepthAtLJunctionsOnly).
+    LineMatchingOptions mo;
+    mo.junction_max_px = 0.0;
+    const StereoResult r = DetectAndMatch(cam, RenderQuads(cam, quads, false, 3),
+                                          RenderQuads(cam, quads, true, 4), mo);
     int long_lines = 0, long_with_depth = 0;
     for (const LineFeature& f : r.left) {
       if (f.length < 200) continue;
@@ -168,6 +176,51 @@ TEST(MatchStereoLines, NearHorizontalSegmentsStay2D) {
       EXPECT_EQ(long_with_depth, long_lines) << deg << " deg";
     }
   }
+}
+
+// Junctions of flat segments: the band of NearHorizontalSegmentsStay2D, now with its short
+// ends in view. Its long sides end at L junctions with the steep short sides and take their
+// depth; the same band with its ends hidden behind two nearer posts ends at T junctions
+// (occluding edges that run on past it) and stays 2D, as does every flat side with
+// junction_max_px = 0.
+TEST(MatchStereoLines, FlatSegmentsTakeDepthAtLJunctionsOnly) {
+  const StereoCamera cam = TestCamera();
+  const double z = 3.0;
+  const Quad band = Rect(-0.7, 0.7, -0.12, 0.12, z, 30);
+  // Posts 1.5 m from the camera covering the band's ends, and reaching well above and below.
+  const std::vector<Quad> hidden = {Rect(-0.7, 0.7, -0.12, 0.12, z, 30),
+                                    Rect(-0.5, -0.25, -0.6, 0.6, 1.5, 200),
+                                    Rect(0.25, 0.5, -0.6, 0.6, 1.5, 200)};
+  const double min_sin = std::sin(LineMatchingOptions().min_stereo_angle_deg * kPi / 180.0);
+  auto flat_sides = [&](const std::vector<Quad>& quads, const LineMatchingOptions& mo,
+                        int* with_depth) {
+    const StereoResult r = DetectAndMatch(cam, RenderQuads(cam, quads, false, 5),
+                                          RenderQuads(cam, quads, true, 6), mo);
+    int n = 0;
+    *with_depth = 0;
+    for (const LineFeature& f : r.left) {
+      // The band's sides (its rows; the posts' ends are far above and below).
+      const double row = 0.5 * (f.s.y() + f.e.y()) - cam.cy;
+      if (f.length < 80 || std::abs(row) > 40 || std::abs(std::sin(f.angle)) >= min_sin) continue;
+      ++n;
+      if (!f.has_depth) continue;
+      ++*with_depth;
+      EXPECT_NEAR(f.P_c.z(), z, 0.03);
+      EXPECT_NEAR(f.Q_c.z(), z, 0.03);
+      EXPECT_LT(DistanceToNearestEdge(quads, f.P_c), 0.03);
+      EXPECT_LT(DistanceToNearestEdge(quads, f.Q_c), 0.03);
+    }
+    return n;
+  };
+  int with_depth = 0;
+  EXPECT_EQ(flat_sides({band}, LineMatchingOptions(), &with_depth), 2);
+  EXPECT_EQ(with_depth, 2) << "both long sides end at the band's corners";
+  LineMatchingOptions off;
+  off.junction_max_px = 0.0;
+  EXPECT_EQ(flat_sides({band}, off, &with_depth), 2);
+  EXPECT_EQ(with_depth, 0);
+  EXPECT_GE(flat_sides(hidden, LineMatchingOptions(), &with_depth), 2);
+  EXPECT_EQ(with_depth, 0) << "a T junction with an occluding edge gives no depth";
 }
 
 TEST(MatchStereoLines, RenderedSceneDisparityMatchesTruth) {
@@ -442,6 +495,9 @@ TEST(LineMatching, OptionsValidationNamesTheKey) {
   o = {};
   o.f2f_max_gap = -5;
   expect_key(o, "f2f_max_gap");
+  o = {};
+  o.junction_max_px = -1;
+  expect_key(o, "junction_max_px");
 }
 
 TEST(LineMatching, DescriptorDistanceCountsBits) {

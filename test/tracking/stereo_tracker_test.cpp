@@ -376,7 +376,10 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
 }
 // The end of the dim corner walk (facing a door: a few faint edges, 1-2 point matches per
 // frame): features alone lose most frames there; direct alignment of the images keeps every
-// one, and the pose ends closer to the truth than the motion model takes it.
+// one, and the pose ends closer to the truth than the motion model takes it. The door's flat
+// edges with depth from their junctions hold part of this view (features alone: 8 frames lost
+// instead of 12, 2.7 instead of 6.0 cm off at the end; with direct alignment 2.0 instead of
+// 1.4 cm), so they are off here: the view must be too poor for features.
 TEST(StereoTrackerTest, DirectAlignmentHoldsADimCorridorWhereFeaturesRunOut) {
   sim::SequenceOptions so;
   so.scene = sim::SceneKind::kLowtexCorner;
@@ -394,6 +397,7 @@ TEST(StereoTrackerTest, DirectAlignmentHoldsADimCorridorWhereFeaturesRunOut) {
   auto run = [&](bool direct) {
     TrackerOptions options;
     options.direct.enabled = direct;
+    options.line_matching.junction_max_px = 0.0;
     StereoTracker tracker(seq.camera(), options);
     const SE3 T_w0 = seq.ground_truth()[first].T_w_c;
     Run out;

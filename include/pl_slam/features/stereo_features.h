@@ -38,6 +38,9 @@ struct LineFeature {
   double length = 0.0;     ///< pixels
   int octave = 0;          ///< pyramid level it was detected at
   bool has_depth = false;  ///< stereo match found, both endpoints triangulated
+  /// With depth although flatter than the row crossing allows: the endpoints took the
+  /// disparities of the segments they meet at L junctions (LineMatchingOptions::junction_max_px)
+  bool depth_from_junctions = false;
   Eigen::Vector3d P_c = Eigen::Vector3d::Zero();  ///< 3D start point, left camera frame
   Eigen::Vector3d Q_c = Eigen::Vector3d::Zero();  ///< 3D end point, left camera frame
 };

@@ -29,11 +29,15 @@ struct LineMatchingOptions {
   double max_disparity = 200.0;          ///< stereo: both endpoint disparities at most this (px)
   double max_disparity_gradient = 0.5;   ///< stereo: |d_s - d_e| / left length (3D slant bound)
   double min_stereo_angle_deg = 15.0;    ///< stereo: flatter segments (vs. rows) get no depth
-  double f2f_ratio = 0.8;                ///< frame to frame: best < ratio * second best
-  double f2f_max_angle_deg = 15.0;       ///< frame to frame: largest direction difference
-  double f2f_min_length_ratio = 0.4;     ///< frame to frame: shorter / longer segment length
-  double f2f_max_line_distance = 10.0;   ///< with prediction: predicted endpoints to line (px)
-  double f2f_max_gap = 20.0;             ///< with prediction: gap between the segments (px)
+  /// stereo: a flatter segment whose both ends are L junctions with segments that have depth
+  /// takes their disparities there when the right image shows it between the same junctions
+  /// within this distance (px); 0: flat segments get no depth
+  double junction_max_px = 3.0;
+  double f2f_ratio = 0.8;               ///< frame to frame: best < ratio * second best
+  double f2f_max_angle_deg = 15.0;      ///< frame to frame: largest direction difference
+  double f2f_min_length_ratio = 0.4;    ///< frame to frame: shorter / longer segment length
+  double f2f_max_line_distance = 10.0;  ///< with prediction: predicted endpoints to line (px)
+  double f2f_max_gap = 20.0;            ///< with prediction: gap between the segments (px)
 
   /// Empty when valid, else "key=value must be in [a, b]" for the first bad key.
   std::string Validate() const;
@@ -55,7 +59,10 @@ int LineDescriptorDistance(const uint8_t* a, const uint8_t* b);
 /// infinite line crosses that endpoint's row, and both endpoints are back-projected
 /// (P_c, Q_c, has_depth = true). Segments within min_stereo_angle_deg of the rows (nearly
 /// parallel to the baseline) are not matched: the row crossing is ill-conditioned there, so
-/// they keep has_depth = false and serve as 2D observations only. Every other left line
+/// they keep has_depth = false and serve as 2D observations only, unless both their ends are
+/// L junctions with matched segments (a frame's corners, a lintel on its jambs): then they
+/// take those segments' disparities there when the right image shows them between the same
+/// junctions (junction_max_px). Every other left line
 /// without a valid match is reset to has_depth = false too. Returns the number of left lines
 /// with depth. With `right_of_left`, it receives the matched right index per left line (-1
 /// when none). Throws ConfigError on invalid options, InputError on descriptors that do not
