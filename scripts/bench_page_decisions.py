@@ -202,6 +202,28 @@ DESIGN_DECISIONS = [
      "figure moves within that spread. The join only on the least-squares line, without "
      "joining again: corridor 2.7 mm, KITTI 0.573 m, the low-texture medians within 0.3 mm and "
      "the street medians within 4 mm of these, 7 of 12 tuning textured runs within 0.05 %."),
+    ("Flat segments take depth at their L junctions (`tracker.line_matching.junction_max_px` 3)",
+     "Stereo crosses a segment with the image rows, so a segment within 15 deg of the rows "
+     "(`min_stereo_angle_deg`) got no depth and served tracking as a 2D observation only: a "
+     "whiteboard's or a door's top and bottom edges, a baseboard seen head-on. Where both ends "
+     "of such a segment meet the end of a segment with depth at 30 deg or more (a frame's "
+     "corner), its endpoints now take that segment's disparity there, if the right image shows "
+     "a segment of the same direction between the same junctions. A junction where the other "
+     "segment runs on (a T) gives none: that edge may occlude the flat one. Endpoint disparity "
+     "against the rendered truth (`pl_slam_bench_depth --street lowtex_corner,lowtex_straight,"
+     "lowtex_spin,lowtex_wall --seeds 1,2 --frames 20`): robust sigma 0.06-0.09 px, 0.5-4.9 % "
+     "more than 1 px off (steep segments: 0.07 px, 0.3 %). Low-texture family, points + lines, "
+     "seeds 1-6 (geometric mean of the per-run ATE ratio to before; lost frames before -> "
+     "after): tuning textured 0.94, tuning bare 0.94 with 482 -> 402 lost (the bare walls), "
+     "held-out textured 1.08 (office s2 2.7 -> 5.7 mm) and bare 0.85, 509 -> 501 lost; "
+     "within 2 px: 0.97 / 0.98 / 1.00 / 0.87, 460 and 500 lost. Street family unchanged "
+     "(no flat segment there meets the rule). Room 1.6 -> 1.5 mm, fast_turn, EuRoC and the "
+     "KITTI clip unchanged; the corridor 1.6 -> 2.3 mm (its VO 1.2 -> 1.1 mm), and over "
+     "renderings with world seeds 1-6 1.4-5.0 mm against 1.3-4.6 mm before (geometric mean "
+     "2.45 against 2.27 mm). In lines-only mode they make both bundle-adjustment line residuals "
+     "better and the two closer (corridor: observed 1.7 -> 1.3 mm, projected 1.9 -> 1.1 mm; "
+     "over the eight renderings observed averages 0.95x projected, so `line_residual` auto "
+     "keeps it)."),
     ("Line residuals use the whole reference segment, also where it leaves the image",
      "The tracker's line residual is the distance of the reference segment's projected "
      "endpoints to the line fitted in the current image. On the held-out avenue (a double "
