@@ -101,7 +101,8 @@ bool DisparityAtJunction(const LineFeatures& lines, const Points2d& disparities,
     const Eigen::Vector2d X = x.head<2>() / x.z();
     const double to_end = (X - end).norm();
     const double to_m = std::min((X - m.s).norm(), (X - m.e).norm());
-    if (to_end > radius || to_m > radius) continue;
+    // Written so that a degenerate segment (NaN line) never qualifies.
+    if (!(to_end <= radius && to_m <= radius && m.length > 0.0)) continue;
     const double t = std::clamp((X - m.s).dot(m.e - m.s) / (m.length * m.length), 0.0, 1.0);
     const double d = disparities[k].x() + t * (disparities[k].y() - disparities[k].x());
     if (found && std::abs(d - *disparity) > 1.0) return false;
@@ -140,16 +141,16 @@ int JunctionDepth(const StereoCamera& camera, LineFeatures* left, const cv::Mat&
         !DisparityAtJunction(with_depth, disparities, with_depth[i], f.e, radius, &d_e))
       continue;
     const double t_s = camera.TrueDisparity(d_s), t_e = camera.TrueDisparity(d_e);
-    if (t_s < options.min_disparity || t_e < options.min_disparity) continue;
-    if (t_s > options.max_disparity || t_e > options.max_disparity) continue;
-    if (std::abs(d_s - d_e) > options.max_disparity_gradient * f.length) continue;
+    if (!(t_s >= options.min_disparity && t_e >= options.min_disparity)) continue;
+    if (!(t_s <= options.max_disparity && t_e <= options.max_disparity)) continue;
+    if (!(std::abs(d_s - d_e) <= options.max_disparity_gradient * f.length)) continue;
     const Eigen::Vector2d s_right(f.s.x() - d_s, f.s.y()), e_right(f.e.x() - d_e, f.e.y());
     const uint8_t* dl = left_desc.ptr<uint8_t>(static_cast<int>(i));
     int best = -1, best_distance = options.max_distance + 1;
     for (std::size_t j = 0; j < right.size(); ++j) {
       const LineFeature& r = right[j];
       if ((*right_taken)[j] || AngleDiff(f.angle, r.angle) > max_angle) continue;
-      if ((r.s - s_right).norm() > radius || (r.e - e_right).norm() > radius) continue;
+      if (!((r.s - s_right).norm() <= radius && (r.e - e_right).norm() <= radius)) continue;
       const int d = LineDescriptorDistance(dl, right_desc.ptr<uint8_t>(static_cast<int>(j)));
       if (d < best_distance) {
         best_distance = d;

@@ -419,6 +419,46 @@ TEST(MatchLines, APredictionThatTellsCopiesApartIsNotReplacedBySearchingEverywhe
   EXPECT_EQ(correct(recovered), 4);
 }
 
+// The junction rule on hand-made segments: a rectangle's bottom edge between its two sides
+// (disparity 12 px) takes their disparity at both ends; a flat segment with one free end, and a
+// zero-length one at a corner, get none, and nothing gets a non-finite depth.
+TEST(MatchStereoLines, JunctionDepthOnHandMadeSegments) {
+  const StereoCamera cam = TestCamera();
+  const double d = 12.0;
+  auto pair = [&](Eigen::Vector2d s, Eigen::Vector2d e, LineFeatures* l, LineFeatures* r) {
+    l->push_back(MakeLineFeature(s, e));
+    r->push_back(MakeLineFeature(s - Eigen::Vector2d(d, 0), e - Eigen::Vector2d(d, 0)));
+  };
+  LineFeatures left, right;
+  pair({300, 100}, {300, 250}, &left, &right);  // the sides
+  pair({500, 250}, {500, 100}, &left, &right);
+  pair({300, 250}, {500, 250}, &left, &right);              // the bottom, L junctions at both ends
+  pair({300, 100}, {420, 100}, &left, &right);              // the top, its right end free
+  left.push_back(MakeLineFeature({500, 100}, {500, 100}));  // zero length, at a corner
+  right.push_back(MakeLineFeature({488, 100}, {488, 100}));
+  cv::Mat desc(static_cast<int>(left.size()), 32, CV_8UC1);
+  cv::RNG rng(7);
+  rng.fill(desc, cv::RNG::UNIFORM, 0, 256);
+  std::vector<int> r_of_l;
+  const int n = MatchStereoLines(cam, &left, desc, right, desc, LineMatchingOptions(), &r_of_l);
+  EXPECT_EQ(n, 3);
+  ASSERT_TRUE(left[2].has_depth);
+  EXPECT_TRUE(left[2].depth_from_junctions);
+  EXPECT_EQ(r_of_l[2], 2);
+  const double z = cam.fx * cam.baseline / cam.TrueDisparity(d);
+  EXPECT_NEAR(left[2].P_c.z(), z, 1e-6);
+  EXPECT_NEAR(left[2].Q_c.z(), z, 1e-6);
+  EXPECT_FALSE(left[0].depth_from_junctions) << "a steep segment's depth is its own";
+  EXPECT_FALSE(left[3].has_depth) << "one end free";
+  EXPECT_FALSE(left[4].has_depth) << "zero length";
+  for (const LineFeature& f : left) EXPECT_TRUE(f.P_c.allFinite() && f.Q_c.allFinite());
+  // Without the sides' match (right sides missing), the bottom has no junction with depth.
+  LineFeatures right_flat(right.begin() + 2, right.end());
+  EXPECT_EQ(MatchStereoLines(cam, &left, desc, right_flat, desc.rowRange(2, desc.rows),
+                             LineMatchingOptions()),
+            0);
+}
+
 TEST(LineMatching, EmptyInputsAndBadDescriptors) {
   const StereoCamera cam = TestCamera();
   LineFeatures left = {MakeLineFeature({100, 100}, {110, 200})};
