@@ -229,9 +229,7 @@ void ScorePair(const pl_slam::StereoCamera& cam, const cv::Mat& left, const cv::
   cv::Mat lld, lrd;
   ldet.Detect(left, &ll, &lld);
   ldet.Detect(right, &lr, &lrd);
-  const pl_slam::LineMatchingOptions lmo;
-  const double min_stereo_deg = lmo.min_stereo_angle_deg;
-  pl_slam::MatchStereoLines(cam, &ll, lld, lr, lrd, lmo);
+  pl_slam::MatchStereoLines(cam, &ll, lld, lr, lrd, pl_slam::LineMatchingOptions());
   ++t->frames;
 
   const double fb = cam.fx * cam.baseline;
@@ -277,11 +275,9 @@ void ScorePair(const pl_slam::StereoCamera& cam, const cv::Mat& left, const cv::
     if (!pl_slam::bench::FitEndpointDisparities(td, line_tolerance, 5, &g0, &g1)) continue;
     if (!(g0 > 0 && g1 > 0)) continue;
     ++t->lines_scored;
-    // Flatter than the matcher's row-crossing limit: depth from the segment's junctions.
-    const bool flat = std::abs(std::sin(l.angle)) < std::sin(min_stereo_deg * M_PI / 180.0);
-    const Kind k = pl_slam::bench::IsSteep(l.angle) ? kEndpointSteep
-                   : flat                           ? kEndpointJunction
-                                                    : kEndpointShallow;
+    const Kind k = l.depth_from_junctions             ? kEndpointJunction
+                   : pl_slam::bench::IsSteep(l.angle) ? kEndpointSteep
+                                                      : kEndpointShallow;
     const double deg = l.angle * 180.0 / M_PI;
     t->Add(k, {cam.TrueDisparity(fb / l.P_c.z()), g0, fb / g0}, l.s, deg);
     t->Add(k, {cam.TrueDisparity(fb / l.Q_c.z()), g1, fb / g1}, l.e, deg);

@@ -83,18 +83,19 @@ inline double ColumnAtRow(const Eigen::Vector3d& l, double v) { return -(l(1) * 
 // where `f` ends (an L junction: a frame's corner, a lintel on its jamb). Both segments must
 // cross at kMinJunctionAngleDeg or more, and their crossing lie within `radius` of `end` and of
 // an endpoint of the other segment; a segment that runs on past the crossing may be an
-// occluding edge in front of `f`, so a T junction gives no depth. False when no segment or
-// two that disagree by more than a pixel qualify.
-bool DisparityAtJunction(const LineFeatures& lines, const Points2d& disparities,
-                         const LineFeature& f, const Eigen::Vector2d& end, double radius,
-                         double* disparity) {
+// occluding edge in front of `f`, so a T junction gives no depth. Segments marked `flat` never
+// lend their depth. False when no segment or two that disagree by more than a pixel qualify.
+bool DisparityAtJunction(const LineFeatures& lines, const std::vector<char>& flat,
+                         const Points2d& disparities, const LineFeature& f,
+                         const Eigen::Vector2d& end, double radius, double* disparity) {
   constexpr double kMinJunctionAngleDeg = 30.0;
   const double min_sin = std::sin(Deg2Rad(kMinJunctionAngleDeg));
   double best_gap = radius * 2.0 + 1.0;
   bool found = false;
   for (std::size_t k = 0; k < lines.size(); ++k) {
     const LineFeature& m = lines[k];
-    if (!m.has_depth || &m == &f) continue;
+    // Depth from the row crossing only (flat segments get theirs in this pass).
+    if (!m.has_depth || flat[k]) continue;
     if (std::abs(std::sin(f.angle - m.angle)) < min_sin) continue;
     const Eigen::Vector3d x = f.l.cross(m.l);
     if (std::abs(x.z()) < 1e-12) continue;
@@ -129,16 +130,13 @@ int JunctionDepth(const StereoCamera& camera, LineFeatures* left, const cv::Mat&
   const double radius = options.junction_max_px;
   const double max_angle = Deg2Rad(options.stereo_max_angle_deg);
   LineFeatures& lines = *left;
-  // Junctions are looked up among the segments the stereo match gave depth, not among those
-  // this pass adds.
-  const LineFeatures with_depth = lines;
   int added = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     LineFeature& f = lines[i];
     if (!flat[i] || f.has_depth) continue;
     double d_s = 0.0, d_e = 0.0;
-    if (!DisparityAtJunction(with_depth, disparities, with_depth[i], f.s, radius, &d_s) ||
-        !DisparityAtJunction(with_depth, disparities, with_depth[i], f.e, radius, &d_e))
+    if (!DisparityAtJunction(lines, flat, disparities, f, f.s, radius, &d_s) ||
+        !DisparityAtJunction(lines, flat, disparities, f, f.e, radius, &d_e))
       continue;
     const double t_s = camera.TrueDisparity(d_s), t_e = camera.TrueDisparity(d_e);
     if (!(t_s >= options.min_disparity && t_e >= options.min_disparity)) continue;
