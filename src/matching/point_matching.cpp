@@ -160,8 +160,9 @@ struct RightSums {
 /// Searches the right image's row v0 for the 11x11 patch around left pixel (u0, v0), over the
 /// right columns [c0, c1]: the column of the highest zero-mean normalised cross-correlation, with
 /// a parabola through it and its neighbours. False when the best is under min_zncc, on the
-/// range's border, or not `margin` above every column more than 2 px from it (a repeated or
-/// edge-like patch), or when the left patch is flat.
+/// range's border, less than 0.03 above the columns 3 px to either side (a patch on an edge),
+/// or not `margin` above every column past the slopes that fall away from it (a repeated
+/// patch), or when the left patch is flat.
 bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u0, int v0, int c0,
                int c1, double min_zncc, double margin, double* ur) {
   constexpr int kHalf = 5, kN = 2 * kHalf + 1, kMaxRange = 1024;
@@ -215,8 +216,21 @@ bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u
     }
   }
   if (best_z < min_zncc || best == 0 || best == n - 1) return false;
+  // A well-placed peak: 3 px to either side the correlation has fallen (a patch on a straight
+  // edge slides along it and does not fall).
+  constexpr int kLocal = 3;
+  constexpr double kLocalDrop = 0.03;
+  if ((best - kLocal >= 0 && z[best - kLocal] > best_z - kLocalDrop) ||
+      (best + kLocal < n && z[best + kLocal] > best_z - kLocalDrop))
+    return false;
+  // A unique peak: its own slopes (the columns over which the correlation keeps falling away
+  // from it) are no rivals, however slowly a blurred corner's correlation falls; every column
+  // past them is, and must stay margin below the peak.
+  int lo = best, hi = best;
+  while (lo > 0 && z[lo - 1] <= z[lo]) --lo;
+  while (hi < n - 1 && z[hi + 1] <= z[hi]) ++hi;
   for (int c = 0; c < n; ++c)
-    if (std::abs(c - best) > 2 && z[c] > best_z - margin) return false;
+    if ((c < lo || c > hi) && z[c] > best_z - margin) return false;
   const double denom = z[best - 1] - 2.0 * z[best] + z[best + 1];
   const double delta =
       denom < 0.0 ? std::clamp(0.5 * (z[best - 1] - z[best + 1]) / denom, -0.5, 0.5) : 0.0;
@@ -343,6 +357,8 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
     double ur = 0.0;
     if (j >= 0) {
       ur = right_kp[j].pt.x;
+      if (options.subpixel && images)
+        RefineDisparity(left_image, right_image, pf.uv.x(), pf.uv.y(), &ur);
     } else {
       // No right keypoint: the row itself, over the disparity range (measured disparity =
       // true - doffs).
@@ -352,13 +368,14 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
           static_cast<int>(std::floor(pf.uv.x() - (options.max_disparity - camera.doffs)));
       const int c1 =
           static_cast<int>(std::ceil(pf.uv.x() - (options.min_disparity - camera.doffs)));
-      if (!SearchRow(left_image, right_image, &sums, u0, static_cast<int>(std::lround(pf.uv.y())),
-                     c0, c1, options.row_search_min_zncc, options.row_search_margin, &ur))
+      const int v0 = static_cast<int>(std::lround(pf.uv.y()));
+      if (!SearchRow(left_image, right_image, &sums, u0, v0, c0, c1, options.row_search_min_zncc,
+                     options.row_search_margin, &ur))
         continue;
+      // The correlation peak is already placed to a fraction of a pixel: only the intensity
+      // fit refines it (RefineDisparity's SAD search around it drifts 1-2 px on faint corners).
+      if (options.subpixel) RefineColumnLucasKanade(left_image, right_image, u0, v0, 5, &ur);
       ur += pf.uv.x() - u0;  // the patch was centred on the rounded column
-    }
-    if (options.subpixel && images) {
-      RefineDisparity(left_image, right_image, pf.uv.x(), pf.uv.y(), &ur);
     }
     const double d = pf.uv.x() - ur;
     const double d_true = camera.TrueDisparity(d);

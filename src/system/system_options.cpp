@@ -88,7 +88,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.point_matching.row_search_min_zncc", &pm.row_search_min_zncc,
         "row search: ZNCC a match must reach (0 = no row search)");
   t.Add("tracker.point_matching.row_search_margin", &pm.row_search_margin,
-        "row search: ZNCC by which the best column beats every other more than 2 px away");
+        "row search: ZNCC by which the best column beats every column past its own falling "
+        "slopes");
   t.Add("tracker.point_matching.f2f_ratio", &pm.f2f_ratio, "frame-to-frame ratio test");
   t.Add("tracker.point_matching.same_corner_radius", &pm.same_corner_radius,
         "ratio tests: candidates this close to the best (px) are the same corner detected again, "

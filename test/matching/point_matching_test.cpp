@@ -253,6 +253,43 @@ TEST(PointMatching, CopiesOfOneCornerAreNotItsRivals) {
   EXPECT_LE(f2f_wrong[1] * (f2f[0] + f2f_wrong[0]), f2f_wrong[0] * (f2f[1] + f2f_wrong[1]));
 }
 
+// The plates' corners with the right detector's keypoints missing (as it misses faint corners
+// that the left one found at its lower threshold): a blurred corner's correlation falls off
+// slowly along the plate's edges, 0.05-0.1 a pixel, yet it has one peak. Those slopes are no
+// rivals, so the corners take their depth from the row search, at the right disparity.
+TEST(PointMatching, RowSearchPlacesBlurredCornersOnTheirSlopes) {
+  const StereoCamera cam = testing_util::EurocSizedCamera();
+  constexpr int kDisparity = 30;
+  const cv::Mat left = PlatesOnAWall(0, 0, 175, 1.0),
+                right = PlatesOnAWall(-kDisparity, 0, 175, 1.0);
+  std::vector<cv::KeyPoint> kl;
+  for (int k = 0; k < 4; ++k) {  // the outer and inner corners of every plate
+    const int u = 200 + 120 * k, v = 40 + 105 * k, w = 44 + 8 * k, h = 70 + 6 * k;
+    const int iu = u + 16 + 2 * k, iv = v + 24, iw = 12 + 2 * k, ih = 22;
+    for (const auto& [cu, cv_] : {std::pair{u, v},
+                                  {u + w - 1, v},
+                                  {u, v + h - 1},
+                                  {u + w - 1, v + h - 1},
+                                  {iu, iv},
+                                  {iu + iw - 1, iv},
+                                  {iu, iv + ih - 1},
+                                  {iu + iw - 1, iv + ih - 1}})
+      kl.emplace_back(static_cast<float>(cu), static_cast<float>(cv_), 31.f);
+  }
+  const cv::Mat desc(static_cast<int>(kl.size()), 32, CV_8UC1, cv::Scalar(0));
+  PointFeatures points;
+  MatchStereoPoints(cam, left, right, kl, desc, {}, cv::Mat(), PointMatchingOptions(), &points);
+  int right_place = 0, wrong = 0;
+  for (const PointFeature& p : points) {
+    if (!p.has_depth) continue;
+    ++(std::abs(cam.TrueDisparity(p.disparity) - kDisparity) < 0.3 ? right_place : wrong);
+  }
+  std::cout << right_place << " of " << kl.size() << " corners at the right disparity, " << wrong
+            << " elsewhere\n";
+  EXPECT_GE(right_place, static_cast<int>(kl.size()) * 3 / 4);
+  EXPECT_EQ(wrong, 0);
+}
+
 // A point on an edge has no place along its row: along an edge that runs with the row every
 // column matches as well, and along an edge slanted to the rows (15 deg) the correlation falls
 // slowly, several columns nearly as well as the best. The row search gives neither a depth.

@@ -28,7 +28,9 @@ struct PointMatchingOptions {
   /// points: a left keypoint left without a partner (the right image's detector missed that
   /// corner, common at low contrast) is looked for along its row by zero-mean normalised
   /// cross-correlation (ZNCC) of an 11x11 patch; accepted when the best column reaches
-  /// row_search_min_zncc and beats every column more than 2 px away by row_search_margin.
+  /// row_search_min_zncc, has fallen 3 px to either side (not an edge), and beats by
+  /// row_search_margin every column past the slopes that fall away from it (however slowly a
+  /// blurred corner's correlation falls); its column is then refined by intensity fit alone.
   int row_search_below = 150;
   double row_search_min_zncc = 0.9;  ///< see row_search_below; 0 = no row search
   double row_search_margin = 0.2;    ///< see row_search_below
