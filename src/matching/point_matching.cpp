@@ -108,11 +108,14 @@ bool RefineColumnLucasKanade(const cv::Mat& left, const cv::Mat& right, int u0, 
   return true;
 }
 
+/// Half size of the 11x11 stereo patches: SAD refinement, row search and intensity fit.
+constexpr int kStereoPatchHalf = 5;
+
 /// Refines the right-image column of a stereo match by SAD over an 11x11 window along the row,
 /// with a parabola through the best cost and its neighbours. Returns false when the minimum is
 /// on the search border or the fit is implausible (the coarse match is then kept).
 bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, double vl, double* ur) {
-  constexpr int kHalf = 5, kSearch = 3;
+  constexpr int kHalf = kStereoPatchHalf, kSearch = 3;
   const int u0 = static_cast<int>(std::lround(ul)), v0 = static_cast<int>(std::lround(vl));
   const int ur0 = static_cast<int>(std::lround(*ur));
   if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols)
@@ -165,7 +168,7 @@ struct RightSums {
 /// patch), or when the left patch is flat.
 bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u0, int v0, int c0,
                int c1, double min_zncc, double margin, double* ur) {
-  constexpr int kHalf = 5, kN = 2 * kHalf + 1, kMaxRange = 1024;
+  constexpr int kHalf = kStereoPatchHalf, kN = 2 * kHalf + 1, kMaxRange = 1024;
   if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols)
     return false;
   c0 = std::max(c0, kHalf);
@@ -374,7 +377,8 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
         continue;
       // The correlation peak is already placed to a fraction of a pixel: only the intensity
       // fit refines it (RefineDisparity's SAD search around it drifts 1-2 px on faint corners).
-      if (options.subpixel) RefineColumnLucasKanade(left_image, right_image, u0, v0, 5, &ur);
+      if (options.subpixel)
+        RefineColumnLucasKanade(left_image, right_image, u0, v0, kStereoPatchHalf, &ur);
       ur += pf.uv.x() - u0;  // the patch was centred on the rounded column
     }
     const double d = pf.uv.x() - ur;
