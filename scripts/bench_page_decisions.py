@@ -627,7 +627,12 @@ DESIGN_DECISIONS = [
      "the last motion's covariance plus 2 mm and 0.5 deg per axis), for the sideways step a "
      "textured wall at one depth trades against a turn: that wall's seed 1 as VO 6.0 -> 4.2 "
      "mm, with mapping unchanged at 5.1 mm (its error is the map's), held-out textured median "
-     "4.9 -> 6.0 mm and bare office seeds 1 / 3 6.8 -> 19.8 and 4.9 -> 8.9 mm."),
+     "4.9 -> 6.0 mm and bare office seeds 1 / 3 6.8 -> 19.8 and 4.9 -> 8.9 mm. A tighter "
+     "prior, 0.2 deg per axis and frame (seeds 1-6): the bare walls s1-s3 gain (0.28 / 0.55 / "
+     "0.53 -> 0.20 / 0.43 / 0.50 m, seed 2 59 -> 27 lost frames), walls s4-s6 and the held-out "
+     "bare office s2 / s4 / s5 move by 1-7 % either way, every other run is unchanged; it "
+     "helps one layout, and the smoothness of the generated walk (a walker's head bob alone "
+     "changes the turn rate by about 0.2 deg per frame at 20 Hz), so 0.5 deg stays."),
     ("A keyframe refinement outside both estimates' uncertainty is refused "
      "(`tracker.keyframe_max_chi2` 200)",
      "Each frame's pose is re-estimated against the last keyframe, with no consensus stage of "
