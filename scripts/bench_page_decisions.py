@@ -327,8 +327,8 @@ DESIGN_DECISIONS = [
      "tuning bare lost frames 293 -> 199 and ATE ratio 0.97, but bare walls s4 / s6 0.61 -> "
      "0.86 and 0.45 -> 0.88 m, and the street drives 1.04 / 1.07 (tuning / held out). With "
      "the true motion as the prediction, its frame-to-frame matches on a bare wall's walk are "
-     "wrong less often (107 of 606 -> 29 of 740 more than 2 px off); on the other layouts and "
-     "the streets it changes under 0.5 % of the matches. The frames it adds rest on a light "
+     "wrong less often (107 of 606 -> 29 of 740 more than 2 px off); on the corner, straight "
+     "and office layouts and a street drive it changes under 0.5 % of the matches. The frames it adds rest on a light "
      "switch alone, whose pitch and height (yaw and sideways motion) the matches cannot tell "
      "apart: fitted with the motion model their rotation errors compound, 1.2-1.5 deg per "
      "frame against 0.3-0.9 without it."),
@@ -630,9 +630,9 @@ DESIGN_DECISIONS = [
      "4.9 -> 6.0 mm and bare office seeds 1 / 3 6.8 -> 19.8 and 4.9 -> 8.9 mm. A tighter "
      "prior, 0.2 deg per axis and frame (seeds 1-6): the bare walls s1-s3 gain (0.28 / 0.55 / "
      "0.53 -> 0.20 / 0.43 / 0.50 m, seed 2 59 -> 27 lost frames), walls s4-s6 and the held-out "
-     "bare office s2 / s4 / s5 move by 1-7 % either way, every other run is unchanged; it "
-     "helps one layout, and the smoothness of the generated walk (a walker's head bob alone "
-     "changes the turn rate by about 0.2 deg per frame at 20 Hz), so 0.5 deg stays."),
+     "bare office s2 / s4 / s5 move by 1-7 % either way, every other run is unchanged. It "
+     "helps one layout and leans on the smoothness of the generated walk (a walker's head bob "
+     "alone changes the turn rate by about 0.2 deg per frame at 20 Hz), so 0.5 deg stays."),
     ("A keyframe refinement outside both estimates' uncertainty is refused "
      "(`tracker.keyframe_max_chi2` 200)",
      "Each frame's pose is re-estimated against the last keyframe, with no consensus stage of "
