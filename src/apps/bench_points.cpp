@@ -13,10 +13,12 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pl_slam/features/point_features.h"
 #include "pl_slam/matching/point_matching.h"
+#include "pl_slam/sim/lowtex_scenes.h"
 #include "pl_slam/sim/synthetic_sequence.h"
 #include "pl_slam/system/slam_system.h"
 #include "pl_slam/util/cli.h"
@@ -135,6 +137,8 @@ int main(int argc, char** argv) {
     }
     if (!cl.Has("scene")) throw pl_slam::ConfigError("--scene is required (see --help)");
     const pl_slam::sim::SceneKind kind = pl_slam::sim::ParseSceneKind(cl.Get("scene", ""));
+    if (cl.Has("bare") && !pl_slam::sim::IsLowtexScene(kind))
+      throw pl_slam::ConfigError("--bare applies to the lowtex_* scenes only");
     const std::vector<int> seeds = ParseSeeds(cl.Get("seeds", "1"));
     const int first = cl.GetInt("first", 0);
     const int step = cl.GetInt("step", 1);
@@ -167,15 +171,18 @@ int main(int argc, char** argv) {
       const pl_slam::sim::SyntheticSequence seq(so);
       const int n = static_cast<int>(seq.size());
       const int last = std::min(cl.GetInt("last", n - 1), n - 1);
-      if (first >= last)
+      if (first >= last) {
         throw pl_slam::ConfigError("--first " + std::to_string(first) +
-                                   " must be below the last "
-                                   "frame " +
-                                   std::to_string(last));
+                                   " must be below the last frame, " + std::to_string(last));
+      }
       Counts per;
+      Frame cur;
       for (int i = first; i < last; i += step) {
-        const Frame prev = Load(seq, detector, options.tracker.point_matching, i);
-        const Frame cur = Load(seq, detector, options.tracker.point_matching, i + 1);
+        // With --step 1 the previous pair's current frame is this pair's previous one.
+        const Frame prev = step == 1 && i > first
+                               ? std::move(cur)
+                               : Load(seq, detector, options.tracker.point_matching, i);
+        cur = Load(seq, detector, options.tracker.point_matching, i + 1);
         const pl_slam::SE3 T_cur_prev =
             seq.ground_truth()[i + 1].T_w_c.inverse() * seq.ground_truth()[i].T_w_c;
         per.Add(ScorePair(seq.camera(), prev, cur, T_cur_prev, options.tracker));
