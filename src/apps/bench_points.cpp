@@ -146,11 +146,7 @@ int main(int argc, char** argv) {
     if (step < 1) throw pl_slam::ConfigError("--step must be >= 1");
     pl_slam::SystemOptions options;
     const pl_slam::OptionTable table = pl_slam::MakeOptionTable(&options);
-    if (cl.Has("set")) {
-      std::stringstream ss(cl.Get("set", ""));
-      std::string assignment;
-      while (std::getline(ss, assignment, ',')) table.SetAssignment(assignment);
-    }
+    if (cl.Has("set")) table.SetAssignments(cl.Get("set", ""));
     const std::string invalid = options.Validate();
     if (!invalid.empty()) throw pl_slam::ConfigError(invalid);
     const pl_slam::PointDetector detector(options.tracker.points);

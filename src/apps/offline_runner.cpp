@@ -286,11 +286,7 @@ int Run(int argc, char** argv) {
   const pl_slam::OptionTable table = pl_slam::MakeOptionTable(&options);
   if (cl.Has("config")) pl_slam::LoadYamlOptions(cl.Get("config", ""), table);
   if (cl.Has("mode")) table.Set("tracker.mode", cl.Get("mode", ""));
-  if (cl.Has("set")) {
-    std::stringstream ss(cl.Get("set", ""));
-    std::string assignment;
-    while (std::getline(ss, assignment, ',')) table.SetAssignment(assignment);
-  }
+  if (cl.Has("set")) table.SetAssignments(cl.Get("set", ""));
   if (cl.Has("print-config")) {
     std::cout << table.Describe();
     return 0;

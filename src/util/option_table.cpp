@@ -95,6 +95,12 @@ void OptionTable::SetAssignment(const std::string& assignment) const {
   Set(assignment.substr(0, eq), assignment.substr(eq + 1));
 }
 
+void OptionTable::SetAssignments(const std::string& list) const {
+  std::stringstream ss(list);
+  std::string assignment;
+  while (std::getline(ss, assignment, ',')) SetAssignment(assignment);
+}
+
 bool OptionTable::Has(const std::string& key) const { return Find(key) != nullptr; }
 
 std::string OptionTable::Get(const std::string& key) const {

@@ -40,6 +40,17 @@ TEST(OptionTable, SetsGetsAndDescribes) {
   EXPECT_NE(t.Describe().find("group.x: 2.5  # a double"), std::string::npos);
 }
 
+// The command-line tools' --set: comma-separated assignments, applied in order.
+TEST(OptionTable, SetsACommaSeparatedListOfAssignments) {
+  Opts o;
+  const OptionTable t = Table(&o);
+  t.SetAssignments("group.n=9,name=b,group.n=4");
+  EXPECT_EQ(o.n, 4);
+  EXPECT_EQ(o.name, "b");
+  EXPECT_THROW(t.SetAssignments("flag=true,novalue"), ConfigError);
+  EXPECT_THROW(t.SetAssignments("group.n=1,typo=2"), ConfigError);
+}
+
 TEST(OptionTable, RefusesUnknownKeysAndMalformedValuesNamingThem) {
   Opts o;
   const OptionTable t = Table(&o);

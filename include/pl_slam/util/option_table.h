@@ -27,6 +27,8 @@ class OptionTable {
   void Set(const std::string& key, const std::string& value) const;
   /// Sets from "key=value". Throws ConfigError when malformed.
   void SetAssignment(const std::string& assignment) const;
+  /// Sets from "k1=v1,k2=v2,..." (the `--set` of the command-line tools), in order.
+  void SetAssignments(const std::string& list) const;
   bool Has(const std::string& key) const;
   /// Current value of `key` as text.
   std::string Get(const std::string& key) const;
