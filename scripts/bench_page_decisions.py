@@ -333,6 +333,26 @@ DESIGN_DECISIONS = [
      "switch alone, whose pitch and height (yaw and sideways motion) the matches cannot tell "
      "apart: fitted with the motion model their rotation errors compound, 1.2-1.5 deg per "
      "frame against 0.3-0.9 without it."),
+    ("Stereo points are not checked by their patches' correlation "
+     "(`tracker.point_matching.stereo_min_zncc` 0)",
+     "Descriptors sometimes pair a corner with another on its row (a faint corner beside "
+     "another, a corner seen against another background), pixels off in disparity; a depth "
+     "error moves a point's projection in the next frame only by its share of the parallax, so "
+     "the motion estimate keeps it as an inlier. Refusing matches whose 11 x 11 patches have "
+     "ZNCC under 0.9 at the refined disparity removes most of them (`pl_slam_bench_depth`, "
+     "points on one surface more than 3 px off: low-texture tuning layouts, seeds 1-3, 0.43 -> "
+     "0.05 %; street tuning layouts 0.42 -> 0.03 %, their mean depth error +0.13 -> +0.00 %; "
+     "KITTI 2015 pair 3 of 97 -> 0 of 87) for 1 % of the stereo points on the low-texture "
+     "family and 3.5 % on the streets, but trajectories do not get better (points + lines, "
+     "per-run ATE ratio, geometric mean, tuning / held out): low-texture seeds 1-3 textured "
+     "0.92 / 0.94, bare 0.97 / 0.98 (lost frames equal), seeds 4-6 textured 1.05 / 0.89, bare "
+     "0.97 / 0.95 (tuning bare lost 180 -> 132, wall bare s4 92 -> 44); street drives 1.01 / 1.10 (5 of 6 held-out "
+     "drives worse); the KITTI clip slam 0.495 -> 0.580 m, VO 1.078 -> 1.126 m (with `--doffs "
+     "1.28` slam 0.088 -> 0.076 m, VO 0.071 -> 0.086 m); EuRoC slam 3.4 -> 3.6 mm; room VO "
+     "2.6 -> 1.6, slam 1.5 -> 1.3 mm; corridor VO 1.0 -> 1.5, slam 2.3 -> 1.8 mm. At ZNCC 0.7 (points more than 3 px off 0.12 % "
+     "low-texture, 0.05 % street) every family ratio is within 0.98-1.01 except the held-out "
+     "streets' 1.13 (avenue s1 0.021 -> 0.043 m), the KITTI clip slam 0.507 m. An option, off "
+     "by default."),
     ("Copies of one corner counted as its rivals (`tracker.point_matching.same_corner_radius` "
      "off)",
      "A sharp corner looks alike at every scale, so each is often detected two to four times, "

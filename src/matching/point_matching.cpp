@@ -37,6 +37,8 @@ std::string PointMatchingOptions::Validate() const {
     os << "row_search_min_zncc=" << row_search_min_zncc << " must be in [0, 1]";
   else if (!(row_search_margin >= 0.0 && row_search_margin <= 2.0))
     os << "row_search_margin=" << row_search_margin << " must be in [0, 2]";
+  else if (!(stereo_min_zncc >= 0.0 && stereo_min_zncc <= 1.0))
+    os << "stereo_min_zncc=" << stereo_min_zncc << " must be in [0, 1]";
   return os.str();
 }
 
@@ -150,6 +152,35 @@ bool RefineDisparity(const cv::Mat& left, const cv::Mat& right, double ul, doubl
   // The patches were compared at the rounded left column u0: carry its offset to the right.
   *ur = x + (ul - u0);
   return true;
+}
+
+/// Zero-mean normalised cross-correlation of the 11x11 patch around left pixel (u0, v0) with the
+/// right image's patch at column x (linear interpolation along the row); -1 where either patch
+/// leaves the image or is flat.
+double StereoPatchZncc(const cv::Mat& left, const cv::Mat& right, int u0, int v0, double x) {
+  constexpr int kHalf = kStereoPatchHalf, n = 2 * kHalf + 1;
+  const int xi = static_cast<int>(std::floor(x));
+  const double a = x - xi;
+  if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols ||
+      xi - kHalf < 0 || xi + kHalf + 1 >= right.cols)
+    return -1.0;
+  double sl = 0.0, sr = 0.0, sll = 0.0, srr = 0.0, slr = 0.0;
+  for (int dy = -kHalf; dy <= kHalf; ++dy) {
+    const uint8_t* lp = left.ptr<uint8_t>(v0 + dy) + u0 - kHalf;
+    const uint8_t* rp = right.ptr<uint8_t>(v0 + dy) + xi - kHalf;
+    for (int dx = 0; dx < n; ++dx) {
+      const double l = lp[dx], r = (1.0 - a) * rp[dx] + a * rp[dx + 1];
+      sl += l;
+      sr += r;
+      sll += l * l;
+      srr += r * r;
+      slr += l * r;
+    }
+  }
+  const double m = n * n;
+  const double vl = sll - sl * sl / m, vr = srr - sr * sr / m;
+  if (!(vl > 1e-9 && vr > 1e-9)) return -1.0;
+  return (slr - sl * sr / m) / std::sqrt(vl * vr);
 }
 
 /// Box sums of the right image for SearchRow, computed on first use (most frames need none).
@@ -380,6 +411,15 @@ int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
       if (options.subpixel)
         RefineColumnLucasKanade(left_image, right_image, u0, v0, kStereoPatchHalf, &ur);
       ur += pf.uv.x() - u0;  // the patch was centred on the rounded column
+    }
+    if (images && options.stereo_min_zncc > 0.0) {
+      // The patches compared at the rounded left column, the right one shifted by the same
+      // offset as the refined column.
+      const int u0 = static_cast<int>(std::lround(pf.uv.x())),
+                v0 = static_cast<int>(std::lround(pf.uv.y()));
+      if (StereoPatchZncc(left_image, right_image, u0, v0, ur - (pf.uv.x() - u0)) <
+          options.stereo_min_zncc)
+        continue;
     }
     const double d = pf.uv.x() - ur;
     const double d_true = camera.TrueDisparity(d);

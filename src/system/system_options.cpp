@@ -82,6 +82,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.point_matching.min_disparity", &pm.min_disparity, "smallest stereo disparity, px");
   t.Add("tracker.point_matching.max_disparity", &pm.max_disparity, "largest stereo disparity, px");
   t.Add("tracker.point_matching.subpixel", &pm.subpixel, "refine disparities by patch correlation");
+  t.Add("tracker.point_matching.stereo_min_zncc", &pm.stereo_min_zncc,
+        "stereo: ZNCC the 11x11 patches must reach at a match's disparity (0 = no check)");
   t.Add("tracker.point_matching.row_search_below", &pm.row_search_below,
         "images with fewer stereo points from descriptors: keypoints without a right keypoint "
         "are looked for along their row by correlation");

@@ -253,6 +253,40 @@ TEST(PointMatching, CopiesOfOneCornerAreNotItsRivals) {
   EXPECT_LE(f2f_wrong[1] * (f2f[0] + f2f_wrong[0]), f2f_wrong[0] * (f2f[1] + f2f_wrong[1]));
 }
 
+// Descriptors can pair a corner with a keypoint that is not it (a faint corner beside another, a
+// corner the other camera sees against another background). Two plates' corners are given their
+// true partners, two a keypoint on the plain wall beside the plate, with the same descriptors:
+// the patch check refuses those two, and only those.
+TEST(PointMatching, StereoMatchesWhosePatchesDisagreeAreRefused) {
+  const StereoCamera cam = testing_util::EurocSizedCamera();
+  constexpr int kDisparity = 30;
+  const cv::Mat left = PlatesOnAWall(0, 0), right = PlatesOnAWall(-kDisparity, 0);
+  std::vector<cv::KeyPoint> kl, kr;
+  for (int k = 0; k < 4; ++k) {
+    const float u = 200.f + 120.f * k, v = 40.f + 105.f * k;  // each plate's top-left corner
+    kl.emplace_back(u, v, 31.f);
+    kr.emplace_back(u - kDisparity - (k < 2 ? 0.f : 40.f), v, 31.f);
+  }
+  cv::Mat desc(4, 32, CV_8UC1);
+  cv::RNG(3).fill(desc, cv::RNG::UNIFORM, 0, 256);
+  for (const double min_zncc : {0.0, 0.9}) {
+    PointMatchingOptions mo;
+    mo.row_search_min_zncc = 0.0;  // descriptor matches only
+    mo.stereo_min_zncc = min_zncc;
+    PointFeatures points;
+    const int matched = MatchStereoPoints(cam, left, right, kl, desc, kr, desc, mo, &points);
+    EXPECT_EQ(matched, min_zncc > 0.0 ? 2 : 4) << "stereo_min_zncc " << min_zncc;
+    for (int k = 0; k < 2; ++k) {
+      ASSERT_TRUE(points[k].has_depth);
+      EXPECT_NEAR(cam.TrueDisparity(points[k].disparity), kDisparity, 0.3);
+    }
+    for (int k = 2; k < 4; ++k) EXPECT_EQ(points[k].has_depth, min_zncc == 0.0) << k;
+  }
+  PointMatchingOptions bad;
+  bad.stereo_min_zncc = 1.5;
+  EXPECT_NE(bad.Validate().find("stereo_min_zncc"), std::string::npos);
+}
+
 // The plates' corners with the right detector's keypoints missing (as it misses faint corners
 // that the left one found at its lower threshold): a blurred corner's correlation falls off
 // slowly along the plate's edges, 0.05-0.1 a pixel, yet it has one peak. Those slopes are no

@@ -24,6 +24,14 @@ struct PointMatchingOptions {
   double min_disparity = 0.5;    ///< stereo: smaller disparities are rejected (pixels)
   double max_disparity = 200.0;  ///< stereo: largest disparity searched (pixels)
   bool subpixel = true;          ///< stereo: refine the disparity by patch correlation
+  /// Stereo: a match is kept only when the 11x11 patches around it, at the final (refined)
+  /// disparity, reach this zero-mean normalised cross-correlation; 0 = no check. Two corners
+  /// with close descriptors on one row are not always one point (a faint corner beside another,
+  /// a corner the other camera sees against another background): their disparity can be pixels
+  /// off, which frame-to-frame residuals hardly show (a depth error moves a point's projection
+  /// only by its share of the motion's parallax). Off by default: it removes most such depths
+  /// but does not make trajectories better; see docs/BENCHMARKS.md, design decisions.
+  double stereo_min_zncc = 0.0;
   /// Stereo, in an image where descriptor matching gave fewer than row_search_below stereo
   /// points: a left keypoint left without a partner (the right image's detector missed that
   /// corner, common at low contrast) is looked for along its row by zero-mean normalised
@@ -60,8 +68,8 @@ int HammingDistance32(const uint8_t* a, const uint8_t* b);
 /// Builds the left-image point features from left and right keypoints: every left keypoint
 /// becomes a PointFeature, with has_depth/disparity/p_c set when it has a mutual-best stereo
 /// match on its epipolar row within the disparity range passing the ratio test, or else (see
-/// row_search_min_zncc) a unique correlation peak on its row. Returns the number of stereo
-/// matches.
+/// row_search_min_zncc) a unique correlation peak on its row, and its patches agree there (see
+/// stereo_min_zncc). Returns the number of stereo matches.
 int MatchStereoPoints(const StereoCamera& camera, const cv::Mat& left_image,
                       const cv::Mat& right_image, const std::vector<cv::KeyPoint>& left_kp,
                       const cv::Mat& left_desc, const std::vector<cv::KeyPoint>& right_kp,
