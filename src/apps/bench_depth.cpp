@@ -7,8 +7,9 @@
 //   --gt DIR: stereo_disparity_gt (KITTI 2015 000046_10, LiDAR-based disparity map)
 //
 // Features are detected and stereo-matched exactly as the tracker does (PointDetector +
-// MatchStereoPoints with sub-pixel refinement, LineDetector + MatchStereoLines, default
-// options). Errors are measured - true disparity (px); a positive error makes depth too small.
+// MatchStereoPoints with sub-pixel refinement, LineDetector + MatchStereoLines, the tracker's
+// options, --set overrides them). Errors are measured - true disparity (px); a positive error makes
+// depth too small.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -28,8 +29,10 @@
 #include "pl_slam/matching/point_matching.h"
 #include "pl_slam/sim/street_scenes.h"
 #include "pl_slam/sim/synthetic_sequence.h"
+#include "pl_slam/system/slam_system.h"
 #include "pl_slam/util/cli.h"
 #include "pl_slam/util/error.h"
+#include "pl_slam/util/option_table.h"
 
 namespace {
 
@@ -44,7 +47,8 @@ constexpr char kUsage[] =
     "  --frames N          frames per drive, evenly spread over it (default 20)\n"
     "  --gt DIR            stereo_disparity_gt folder (KITTI_2015/training/..._10 pair)\n"
     "  --no-subpixel       points: coarse (keypoint) disparities, for comparison\n"
-    "  --csv FILE          every scored feature: type,z_gt,d_gt,d_meas,u,v,angle_deg\n";
+    "  --csv FILE          every scored feature: type,z_gt,d_gt,d_meas,u,v,angle_deg\n"
+    "  --set K=V[,K=V...]  tracker option overrides, as pl_slam_offline takes them\n";
 
 // Feature types, one table each.
 enum Kind {
@@ -53,6 +57,7 @@ enum Kind {
   kEndpointSteep,
   kEndpointShallow,
   kEndpointJunction,
+  kEndpointOneJunction,
   kKinds
 };
 const char* const kKindNames[kKinds] = {
@@ -60,7 +65,8 @@ const char* const kKindNames[kKinds] = {
     "points near an occlusion boundary (GT: the surface within 1.5 px closest to the measurement)",
     "line endpoints, steep segments (> 45 deg from the rows)",
     "line endpoints, shallow segments (15-45 deg from the rows)",
-    "line endpoints, flat segments (< 15 deg from the rows: depth from their L junctions)"};
+    "line endpoints, flat segments (< 15 deg from the rows: depth from their L junctions)",
+    "line endpoints, flat segments with one L junction (tracker.line_matching.junction_one_end)"};
 
 // Ground truth seen from one left image: the true (geometric) disparity at a sub-pixel
 // position of each surface seen at or near it.
@@ -214,22 +220,21 @@ struct Tables {
 
 // Detects and stereo-matches one pair as the tracker does and scores every feature with depth.
 void ScorePair(const pl_slam::StereoCamera& cam, const cv::Mat& left, const cv::Mat& right,
-               const GroundTruth& gt, bool subpixel, double line_tolerance, Tables* t) {
-  const pl_slam::PointDetector pdet{pl_slam::PointDetectorOptions()};
-  const pl_slam::LineDetector ldet{pl_slam::LineDetectorOptions()};
+               const GroundTruth& gt, const pl_slam::TrackerOptions& to, double line_tolerance,
+               Tables* t) {
+  const pl_slam::PointDetector pdet{to.points};
+  const pl_slam::LineDetector ldet{to.lines};
   std::vector<cv::KeyPoint> kl, kr;
   cv::Mat dl, dr;
   pdet.Detect(left, &kl, &dl);
   pdet.Detect(right, &kr, &dr);
-  pl_slam::PointMatchingOptions pmo;
-  pmo.subpixel = subpixel;
   pl_slam::PointFeatures points;
-  pl_slam::MatchStereoPoints(cam, left, right, kl, dl, kr, dr, pmo, &points);
+  pl_slam::MatchStereoPoints(cam, left, right, kl, dl, kr, dr, to.point_matching, &points);
   pl_slam::LineFeatures ll, lr;
   cv::Mat lld, lrd;
   ldet.Detect(left, &ll, &lld);
   ldet.Detect(right, &lr, &lrd);
-  pl_slam::MatchStereoLines(cam, &ll, lld, lr, lrd, pl_slam::LineMatchingOptions());
+  pl_slam::MatchStereoLines(cam, &ll, lld, lr, lrd, to.line_matching, nullptr, left, right);
   ++t->frames;
 
   const double fb = cam.fx * cam.baseline;
@@ -275,7 +280,8 @@ void ScorePair(const pl_slam::StereoCamera& cam, const cv::Mat& left, const cv::
     if (!pl_slam::bench::FitEndpointDisparities(td, line_tolerance, 5, &g0, &g1)) continue;
     if (!(g0 > 0 && g1 > 0)) continue;
     ++t->lines_scored;
-    const Kind k = l.depth_from_junctions             ? kEndpointJunction
+    const Kind k = l.one_junction                     ? kEndpointOneJunction
+                   : l.depth_from_junctions           ? kEndpointJunction
                    : pl_slam::bench::IsSteep(l.angle) ? kEndpointSteep
                                                       : kEndpointShallow;
     const double deg = l.angle * 180.0 / M_PI;
@@ -313,7 +319,7 @@ std::string SeedList(const std::vector<int>& seeds) {
 }
 
 void RunStreet(const std::vector<std::string>& layouts, const std::vector<int>& seeds, int frames,
-               bool subpixel, std::ofstream* csv) {
+               const pl_slam::TrackerOptions& to, std::ofstream* csv) {
   Tables total;
   for (const std::string& layout : layouts) {
     Tables per;
@@ -330,7 +336,7 @@ void RunStreet(const std::vector<std::string>& layouts, const std::vector<int>& 
         const pl_slam::StereoFrame f = seq.Render(k);
         const WorldGroundTruth gt(seq.world(), seq.camera(), seq.ground_truth()[k].T_w_c);
         // Exact GT: a sample more than 0.05 px off the line is on another surface.
-        ScorePair(seq.camera(), f.left, f.right, gt, subpixel, 0.05, &per);
+        ScorePair(seq.camera(), f.left, f.right, gt, to, 0.05, &per);
       }
       std::cerr << layout << " seed " << seed << ": " << m << " frames\n";
     }
@@ -340,7 +346,7 @@ void RunStreet(const std::vector<std::string>& layouts, const std::vector<int>& 
   if (layouts.size() > 1) Print("street scenes, all layouts", total);
 }
 
-void RunGt(const fs::path& root, bool subpixel, std::ofstream* csv) {
+void RunGt(const fs::path& root, const pl_slam::TrackerOptions& to, std::ofstream* csv) {
   const fs::path kitti = root / "KITTI_2015" / "training";
   if (!fs::exists(kitti / "image_2" / "000046_10.png")) {
     throw pl_slam::InputError((kitti / "image_2" / "000046_10.png").string() + ": not found");
@@ -368,7 +374,7 @@ void RunGt(const fs::path& root, bool subpixel, std::ofstream* csv) {
   t.csv = csv;
   // The GT is a LiDAR map resampled to pixels (+-0.3 px and worse at edges): a line sample
   // more than 0.5 px off the fit is taken as another surface.
-  ScorePair(cam, l, r, MapGroundTruth(gt), subpixel, 0.5, &t);
+  ScorePair(cam, l, r, MapGroundTruth(gt), to, 0.5, &t);
   Print("KITTI 2015 000046_10 (disp_occ_0)", t);
 
   // Reference: an independent matcher (OpenCV semi-global block matching, its own sub-pixel
@@ -407,7 +413,7 @@ std::vector<std::string> Split(const std::string& s) {
 }
 
 int Run(int argc, char** argv) {
-  const pl_slam::CommandLine cl(argc, argv, {"street", "seeds", "frames", "gt", "csv"},
+  const pl_slam::CommandLine cl(argc, argv, {"street", "seeds", "frames", "gt", "csv", "set"},
                                 {"no-subpixel", "help"});
   if (cl.Has("help")) {
     std::cout << kUsage;
@@ -416,7 +422,12 @@ int Run(int argc, char** argv) {
   if (cl.Has("street") == cl.Has("gt"))
     throw pl_slam::ConfigError("give --street or --gt\n" + std::string(kUsage));
   cv::setNumThreads(1);
+  pl_slam::SystemOptions options;
+  if (cl.Has("set")) pl_slam::MakeOptionTable(&options).SetAssignments(cl.Get("set", ""));
+  const std::string invalid = options.Validate();
+  if (!invalid.empty()) throw pl_slam::ConfigError(invalid);
   const bool subpixel = !cl.Has("no-subpixel");
+  options.tracker.point_matching.subpixel = subpixel;
   std::ofstream csv;
   if (cl.Has("csv")) {
     csv.open(cl.Get("csv", ""));
@@ -426,16 +437,18 @@ int Run(int argc, char** argv) {
   std::ofstream* csv_ptr = csv.is_open() ? &csv : nullptr;
   std::printf(
       "Signed disparity error = measured - true (px; > 0: depth too small). Point "
-      "sub-pixel refinement %s; default detector and matcher options.\n\n",
-      subpixel ? "on" : "off");
+      "sub-pixel refinement %s; %s.\n\n",
+      subpixel ? "on" : "off",
+      cl.Has("set") ? ("the tracker's options with " + cl.Get("set", "")).c_str()
+                    : "the tracker's detector and matcher options");
   if (cl.Has("gt")) {
-    RunGt(cl.Get("gt", ""), subpixel, csv_ptr);
+    RunGt(cl.Get("gt", ""), options.tracker, csv_ptr);
   } else {
     std::vector<int> seeds;
     for (const std::string& s : Split(cl.Get("seeds", "1"))) seeds.push_back(std::stoi(s));
     const int frames = cl.GetInt("frames", 20);
     if (frames < 1) throw pl_slam::ConfigError("--frames must be at least 1");
-    RunStreet(Split(cl.Get("street", "")), seeds, frames, subpixel, csv_ptr);
+    RunStreet(Split(cl.Get("street", "")), seeds, frames, options.tracker, csv_ptr);
   }
   return 0;
 }

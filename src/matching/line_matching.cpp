@@ -10,6 +10,7 @@
 #include <Eigen/StdVector>
 
 #include "pl_slam/util/error.h"
+#include "row_search.h"
 
 namespace pl_slam {
 namespace {
@@ -116,50 +117,115 @@ bool DisparityAtJunction(const LineFeatures& lines, const std::vector<char>& fla
   return found;
 }
 
+// The right segment among `right` not yet taken that best matches left segment `f` (its
+// descriptor `dl` within max_distance, direction within stereo_max_angle_deg) with its start
+// within `radius` of `s_right` and its end within `radius` of `e_right`; -1 when none. A
+// negative radius skips that end's test.
+int RightAtEnds(const LineFeature& f, const uint8_t* dl, const LineFeatures& right,
+                const cv::Mat& right_desc, const LineMatchingOptions& options,
+                const std::vector<char>& right_taken, const Eigen::Vector2d& s_right,
+                double s_radius, const Eigen::Vector2d& e_right, double e_radius) {
+  const double max_angle = Deg2Rad(options.stereo_max_angle_deg);
+  int best = -1, best_distance = options.max_distance + 1;
+  for (std::size_t j = 0; j < right.size(); ++j) {
+    const LineFeature& r = right[j];
+    if (right_taken[j] || AngleDiff(f.angle, r.angle) > max_angle) continue;
+    if (s_radius >= 0.0 && !((r.s - s_right).norm() <= s_radius)) continue;
+    if (e_radius >= 0.0 && !((r.e - e_right).norm() <= e_radius)) continue;
+    const int d = LineDescriptorDistance(dl, right_desc.ptr<uint8_t>(static_cast<int>(j)));
+    if (d < best_distance) {
+      best_distance = d;
+      best = static_cast<int>(j);
+    }
+  }
+  return best;
+}
+
 // Depth for flat segments (`flat`: too close to the rows for the row crossing), which the
 // epipolar geometry cannot give: where both ends are L junctions with segments that have
 // depth, the endpoints take those segments' disparities there. Kept only when the right image
 // shows a segment of the same direction between the same junctions (both endpoints within
 // junction_max_px of where the disparities put them, a descriptor within max_distance) that no
-// other left segment took. Returns the number of segments given depth.
+// other left segment took. With junction_one_end (and the images), a segment with one such
+// end whose right segment starts at that junction takes, at its free end, the disparity of the
+// end's own patch, searched on its row near the right segment's end (a flat edge's end is a
+// corner both images see, unless the image border cuts it: then nothing). Returns the number
+// of segments given depth.
 int JunctionDepth(const StereoCamera& camera, LineFeatures* left, const cv::Mat& left_desc,
                   const LineFeatures& right, const cv::Mat& right_desc,
                   const LineMatchingOptions& options, const std::vector<char>& flat,
-                  const Points2d& disparities, std::vector<char>* right_taken,
+                  const Points2d& disparities, const cv::Mat& left_image,
+                  const cv::Mat& right_image, std::vector<char>* right_taken,
                   std::vector<int>* right_of_left) {
+  // Free ends: the patch around the left end must correlate (ZNCC) at least this well on its
+  // row near the right segment's end, with a peak this far above every other column there.
+  constexpr double kFreeEndMinZncc = 0.8, kFreeEndMargin = 0.1;
+  // A flat segment of a level camera's view of a building is nearly always an edge parallel to
+  // the baseline (a lintel, a shelf, a board's top), whose depth hardly changes along it; the
+  // free end's patch found at a disparity this far (relative) from the junction's is more often
+  // the right image's next corner along the edge.
+  constexpr double kFreeEndMaxChange = 0.1;
+  const bool images = !left_image.empty() && !right_image.empty();
+  match_internal::RightSums sums;
   const double radius = options.junction_max_px;
-  const double max_angle = Deg2Rad(options.stereo_max_angle_deg);
+  // A free end this close to the border may be where the image cuts the edge.
+  const double border = 2.0 * radius + 2.0;
   LineFeatures& lines = *left;
   int added = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
     LineFeature& f = lines[i];
     if (!flat[i] || f.has_depth) continue;
     double d_s = 0.0, d_e = 0.0;
-    if (!DisparityAtJunction(lines, flat, disparities, f, f.s, radius, &d_s) ||
-        !DisparityAtJunction(lines, flat, disparities, f, f.e, radius, &d_e))
-      continue;
+    const bool at_s = DisparityAtJunction(lines, flat, disparities, f, f.s, radius, &d_s);
+    const bool at_e = DisparityAtJunction(lines, flat, disparities, f, f.e, radius, &d_e);
+    if (!at_s && !at_e) continue;
+    const bool one = !(at_s && at_e);
+    if (one && !(options.junction_one_end && images)) continue;
+    const uint8_t* dl = left_desc.ptr<uint8_t>(static_cast<int>(i));
+    const Eigen::Vector2d s_right(f.s.x() - d_s, f.s.y()), e_right(f.e.x() - d_e, f.e.y());
+    int best = -1;
+    if (!one) {
+      best = RightAtEnds(f, dl, right, right_desc, options, *right_taken, s_right, radius, e_right,
+                         radius);
+    } else {
+      const Eigen::Vector2d& free = at_s ? f.e : f.s;
+      if (!camera.InImage(free, border)) continue;
+      // The right segment's free end: on the same row (rectified), anywhere along it.
+      best = at_s ? RightAtEnds(f, dl, right, right_desc, options, *right_taken, s_right, radius,
+                                e_right, -1.0)
+                  : RightAtEnds(f, dl, right, right_desc, options, *right_taken, s_right, -1.0,
+                                e_right, radius);
+      if (best < 0) continue;
+      const Eigen::Vector2d& free_right = at_s ? right[best].e : right[best].s;
+      if (!(camera.InImage(free_right, border) && std::abs(free_right.y() - free.y()) <= radius))
+        continue;
+      // Where the detector ends a segment is no place both images agree on (a weak stretch
+      // cuts one of them short): the end's own patch, found on its row near the right end,
+      // gives the disparity, and an edge that runs on through the patch (no peak) gives none.
+      const int u0 = static_cast<int>(std::lround(free.x()));
+      const int v0 = static_cast<int>(std::lround(free.y()));
+      const double guess = free_right.x() - (free.x() - u0);
+      const int reach = static_cast<int>(std::ceil(radius)) + 2;
+      double ur = 0.0;
+      if (!match_internal::SearchRow(
+              left_image, right_image, &sums, u0, v0, static_cast<int>(std::floor(guess)) - reach,
+              static_cast<int>(std::ceil(guess)) + reach, kFreeEndMinZncc, kFreeEndMargin, &ur))
+        continue;
+      const double d_junction = at_s ? d_s : d_e, d_free = u0 - ur;
+      if (!(std::abs(d_free - d_junction) <= kFreeEndMaxChange * camera.TrueDisparity(d_junction)))
+        continue;
+      (at_s ? d_e : d_s) = d_free;
+    }
+    if (best < 0) continue;
     const double t_s = camera.TrueDisparity(d_s), t_e = camera.TrueDisparity(d_e);
     if (!(t_s >= options.min_disparity && t_e >= options.min_disparity)) continue;
     if (!(t_s <= options.max_disparity && t_e <= options.max_disparity)) continue;
     if (!(std::abs(d_s - d_e) <= options.max_disparity_gradient * f.length)) continue;
-    const Eigen::Vector2d s_right(f.s.x() - d_s, f.s.y()), e_right(f.e.x() - d_e, f.e.y());
-    const uint8_t* dl = left_desc.ptr<uint8_t>(static_cast<int>(i));
-    int best = -1, best_distance = options.max_distance + 1;
-    for (std::size_t j = 0; j < right.size(); ++j) {
-      const LineFeature& r = right[j];
-      if ((*right_taken)[j] || AngleDiff(f.angle, r.angle) > max_angle) continue;
-      if (!((r.s - s_right).norm() <= radius && (r.e - e_right).norm() <= radius)) continue;
-      const int d = LineDescriptorDistance(dl, right_desc.ptr<uint8_t>(static_cast<int>(j)));
-      if (d < best_distance) {
-        best_distance = d;
-        best = static_cast<int>(j);
-      }
-    }
-    if (best < 0) continue;
     f.P_c = camera.BackProject(f.s.x(), f.s.y(), d_s);
     f.Q_c = camera.BackProject(f.e.x(), f.e.y(), d_e);
     f.has_depth = true;
     f.depth_from_junctions = true;
+    f.one_junction = one;
     (*right_taken)[best] = 1;
     if (right_of_left) (*right_of_left)[i] = best;
     ++added;
@@ -219,7 +285,8 @@ int LineDescriptorDistance(const uint8_t* a, const uint8_t* b) {
 
 int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::Mat& left_desc,
                      const LineFeatures& right, const cv::Mat& right_desc,
-                     const LineMatchingOptions& options, std::vector<int>* right_of_left) {
+                     const LineMatchingOptions& options, std::vector<int>* right_of_left,
+                     const cv::Mat& left_image, const cv::Mat& right_image) {
   const std::string err = options.Validate();
   if (!err.empty()) throw ConfigError("line_matching." + err);
   CheckDescriptors("MatchStereoLines left", left_desc, left->size());
@@ -229,6 +296,7 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
   for (LineFeature& f : *left) {
     f.has_depth = false;
     f.depth_from_junctions = false;
+    f.one_junction = false;
     f.P_c.setZero();
     f.Q_c.setZero();
   }
@@ -293,7 +361,7 @@ int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::M
     std::vector<char> flat(nl);
     for (int i = 0; i < nl; ++i) flat[i] = !steep((*left)[i]);
     matched += JunctionDepth(camera, left, left_desc, right, right_desc, options, flat, best_disp,
-                             &right_taken, right_of_left);
+                             left_image, right_image, &right_taken, right_of_left);
   }
   return matched;
 }

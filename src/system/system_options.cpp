@@ -164,6 +164,10 @@ OptionTable MakeOptionTable(SystemOptions* options) {
         "stereo: a flatter segment whose both ends are L junctions with segments that have "
         "depth takes their disparities there, when the right image shows it between the same "
         "junctions within this distance, px (0: off)");
+  t.Add("tracker.line_matching.junction_one_end", &lm.junction_one_end,
+        "stereo: a flatter segment with an L junction at one end only takes its disparity there "
+        "and, at the free end (away from the image border), the column difference of the left "
+        "and right segments' endpoints");
   t.Add("tracker.line_matching.f2f_ratio", &lm.f2f_ratio, "frame-to-frame ratio test");
   t.Add("tracker.line_matching.f2f_max_angle_deg", &lm.f2f_max_angle_deg,
         "frame to frame: largest direction difference, deg");

@@ -468,9 +468,9 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
     cur.point_descriptors = left.point_descriptors;
   }
   if (s.use_lines) {
-    result.lines_stereo =
-        MatchStereoLines(s.camera, &left.lines, left.line_descriptors, right.lines,
-                         right.line_descriptors, s.options.line_matching);
+    result.lines_stereo = MatchStereoLines(
+        s.camera, &left.lines, left.line_descriptors, right.lines, right.line_descriptors,
+        s.options.line_matching, nullptr, frame.left, frame.right);
     cur.lines = std::move(left.lines);
     cur.line_descriptors = left.line_descriptors;
   }

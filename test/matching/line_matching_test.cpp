@@ -419,22 +419,26 @@ TEST(MatchLines, APredictionThatTellsCopiesApartIsNotReplacedBySearchingEverywhe
   EXPECT_EQ(correct(recovered), 4);
 }
 
+// Segment s-e in the left image and its partner in the right one at disparity d.
+void AddStereoSegment(const Eigen::Vector2d& s, const Eigen::Vector2d& e, double d,
+                      LineFeatures* left, LineFeatures* right) {
+  left->push_back(MakeLineFeature(s, e));
+  right->push_back(MakeLineFeature(s - Eigen::Vector2d(d, 0), e - Eigen::Vector2d(d, 0)));
+}
+
 // The junction rule on hand-made segments: a rectangle's bottom edge between its two sides
 // (disparity 12 px) takes their disparity at both ends; a flat segment with one free end, and a
 // zero-length one at a corner, get none, and nothing gets a non-finite depth.
 TEST(MatchStereoLines, JunctionDepthOnHandMadeSegments) {
   const StereoCamera cam = TestCamera();
   const double d = 12.0;
-  auto pair = [&](Eigen::Vector2d s, Eigen::Vector2d e, LineFeatures* l, LineFeatures* r) {
-    l->push_back(MakeLineFeature(s, e));
-    r->push_back(MakeLineFeature(s - Eigen::Vector2d(d, 0), e - Eigen::Vector2d(d, 0)));
-  };
   LineFeatures left, right;
-  pair({300, 100}, {300, 250}, &left, &right);  // the sides
-  pair({500, 250}, {500, 100}, &left, &right);
-  pair({300, 250}, {500, 250}, &left, &right);              // the bottom, L junctions at both ends
-  pair({300, 100}, {420, 100}, &left, &right);              // the top, its right end free
-  left.push_back(MakeLineFeature({500, 100}, {500, 100}));  // zero length, at a corner
+  AddStereoSegment({300, 100}, {300, 250}, d, &left, &right);  // the sides
+  AddStereoSegment({500, 250}, {500, 100}, d, &left, &right);
+  // The bottom, L junctions at both ends.
+  AddStereoSegment({300, 250}, {500, 250}, d, &left, &right);
+  AddStereoSegment({300, 100}, {420, 100}, d, &left, &right);  // the top, its right end free
+  left.push_back(MakeLineFeature({500, 100}, {500, 100}));     // zero length, at a corner
   right.push_back(MakeLineFeature({488, 100}, {488, 100}));
   cv::Mat desc(static_cast<int>(left.size()), 32, CV_8UC1);
   cv::RNG rng(7);
@@ -457,6 +461,58 @@ TEST(MatchStereoLines, JunctionDepthOnHandMadeSegments) {
   EXPECT_EQ(MatchStereoLines(cam, &left, desc, right_flat, desc.rowRange(2, desc.rows),
                              LineMatchingOptions()),
             0);
+}
+
+// junction_one_end: the top edge of a bright block runs from the left side's end (an L junction
+// with depth, disparity 12 px) to a free end, the block's corner. With the images the free end's
+// patch gives the same disparity; where the block's edge runs on past the segment's end (the
+// detector cut it short), the patch slides along the edge and the segment gets no depth; without
+// the option or the images it gets none either.
+TEST(MatchStereoLines, OneJunctionEndTakesTheFreeEndsPatchDisparity) {
+  const StereoCamera cam = TestCamera();
+  const double d = 12.0;
+  LineFeatures left0, right;
+  AddStereoSegment({300, 250}, {300, 100}, d, &left0, &right);  // the side, steep: depth of its own
+  AddStereoSegment({300, 100}, {420, 100}, d, &left0, &right);  // the top, its right end free
+  cv::Mat desc(static_cast<int>(left0.size()), 32, CV_8UC1);
+  cv::RNG rng(11);
+  rng.fill(desc, cv::RNG::UNIFORM, 0, 256);
+  // The block ends at column `block_end` in the left image (exactly `d` further left in the
+  // right one), its edges blurred.
+  auto images = [&](int block_end, cv::Mat* l, cv::Mat* r) {
+    *l = cv::Mat(cam.height, cam.width, CV_8UC1, cv::Scalar(90));
+    cv::rectangle(*l, cv::Point(300, 100), cv::Point(block_end, 250), cv::Scalar(170), cv::FILLED);
+    cv::GaussianBlur(*l, *l, cv::Size(5, 5), 1.0);
+    const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -d, 0, 1, 0);
+    cv::warpAffine(*l, *r, shift, l->size(), cv::INTER_NEAREST, cv::BORDER_REPLICATE);
+  };
+  const LineMatchingOptions on;
+  LineMatchingOptions off;
+  off.junction_one_end = false;
+  const double z = cam.fx * cam.baseline / cam.TrueDisparity(d);
+  cv::Mat l_img, r_img;
+  images(420, &l_img, &r_img);
+  LineFeatures left = left0;
+  EXPECT_EQ(MatchStereoLines(cam, &left, desc, right, desc, on, nullptr, l_img, r_img), 2);
+  ASSERT_TRUE(left[1].has_depth);
+  EXPECT_TRUE(left[1].depth_from_junctions);
+  EXPECT_TRUE(left[1].one_junction);
+  EXPECT_NEAR(left[1].P_c.z(), z, 1e-6) << "the junction's end";
+  EXPECT_NEAR(left[1].Q_c.z(), z, 0.01 * z) << "the free end";
+  EXPECT_FALSE(left[0].one_junction);
+
+  left = left0;
+  EXPECT_EQ(MatchStereoLines(cam, &left, desc, right, desc, off, nullptr, l_img, r_img), 1)
+      << "option off";
+  EXPECT_FALSE(left[1].has_depth);
+  left = left0;
+  EXPECT_EQ(MatchStereoLines(cam, &left, desc, right, desc, on), 1) << "no images";
+  EXPECT_FALSE(left[1].has_depth);
+
+  images(480, &l_img, &r_img);  // the edge runs on 60 px past the segment's free end
+  left = left0;
+  EXPECT_EQ(MatchStereoLines(cam, &left, desc, right, desc, on, nullptr, l_img, r_img), 1);
+  EXPECT_FALSE(left[1].has_depth) << "no corner at the free end";
 }
 
 TEST(LineMatching, EmptyInputsAndBadDescriptors) {

@@ -339,8 +339,10 @@ TEST(StereoTrackerTest, WhileLostTheRotationComesFromTheFramesOwnMatches) {
   auto run = [&](int lost_rotation_min_inliers) {
     TrackerOptions options;
     options.lost_rotation_min_inliers = lost_rotation_min_inliers;
-    // As above: no row search through windows cut at the same pixels in both images.
+    // As above: no patch search along the rows (corners, free ends of flat segments) through
+    // windows cut at the same pixels in both images.
     options.point_matching.row_search_min_zncc = 0.0;
+    options.line_matching.junction_one_end = false;
     StereoTracker tracker(seq.camera(), options);
     const SE3 T_w0 = seq.ground_truth()[0].T_w_c;
     Run out;

@@ -33,6 +33,11 @@ struct LineMatchingOptions {
   /// takes their disparities there when the right image shows it between the same junctions
   /// within this distance (px); 0: flat segments get no depth
   double junction_max_px = 3.0;
+  /// stereo: a flat segment with an L junction at one end only takes that junction's disparity
+  /// there when the right segment starts within junction_max_px of where it puts it, and at
+  /// its free end (away from the image border) the disparity of the end's 11x11 patch, searched
+  /// on its row near the right segment's end (MatchStereoLines needs the images for this)
+  bool junction_one_end = true;
   double f2f_ratio = 0.8;               ///< frame to frame: best < ratio * second best
   double f2f_max_angle_deg = 15.0;      ///< frame to frame: largest direction difference
   double f2f_min_length_ratio = 0.4;    ///< frame to frame: shorter / longer segment length
@@ -62,14 +67,16 @@ int LineDescriptorDistance(const uint8_t* a, const uint8_t* b);
 /// they keep has_depth = false and serve as 2D observations only, unless both their ends are
 /// L junctions with matched segments (a frame's corners, a lintel on its jambs): then they
 /// take those segments' disparities there when the right image shows them between the same
-/// junctions (junction_max_px). Every other left line
-/// without a valid match is reset to has_depth = false too. Returns the number of left lines
-/// with depth. With `right_of_left`, it receives the matched right index per left line (-1
-/// when none). Throws ConfigError on invalid options, InputError on descriptors that do not
-/// fit the lines.
+/// junctions (junction_max_px); with junction_one_end and the images, also when one end is such
+/// a junction and the other end's patch is found on its row near the right segment's end.
+/// Every other left line without a valid match is reset to has_depth = false too. Returns the
+/// number of left lines with depth. With `right_of_left`, it receives the matched right index
+/// per left line (-1 when none). Throws ConfigError on invalid options, InputError on
+/// descriptors that do not fit the lines.
 int MatchStereoLines(const StereoCamera& camera, LineFeatures* left, const cv::Mat& left_desc,
                      const LineFeatures& right, const cv::Mat& right_desc,
-                     const LineMatchingOptions& options, std::vector<int>* right_of_left = nullptr);
+                     const LineMatchingOptions& options, std::vector<int>* right_of_left = nullptr,
+                     const cv::Mat& left_image = cv::Mat(), const cv::Mat& right_image = cv::Mat());
 
 /// Frame-to-frame matches (previous index, current index): mutual best LBD matches that pass
 /// the ratio test. Without a prediction the ratio test runs against every current segment
