@@ -42,7 +42,7 @@ struct LineFeature {
   /// disparities of the segments they meet at L junctions (LineMatchingOptions::junction_max_px)
   bool depth_from_junctions = false;
   /// Of those, one with a single L junction (LineMatchingOptions::junction_one_end): the free
-  /// end's disparity is the column difference of the left and right segments' endpoints there
+  /// end's disparity is that of its own patch, found along its row in the right image
   bool one_junction = false;
   Eigen::Vector3d P_c = Eigen::Vector3d::Zero();  ///< 3D start point, left camera frame
   Eigen::Vector3d Q_c = Eigen::Vector3d::Zero();  ///< 3D end point, left camera frame
