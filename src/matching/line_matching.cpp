@@ -181,21 +181,15 @@ int JunctionDepth(const StereoCamera& camera, LineFeatures* left, const cv::Mat&
     if (!at_s && !at_e) continue;
     const bool one = !(at_s && at_e);
     if (one && !(options.junction_one_end && images)) continue;
+    if (one && !camera.InImage(at_s ? f.e : f.s, border)) continue;
     const uint8_t* dl = left_desc.ptr<uint8_t>(static_cast<int>(i));
     const Eigen::Vector2d s_right(f.s.x() - d_s, f.s.y()), e_right(f.e.x() - d_e, f.e.y());
-    int best = -1;
-    if (!one) {
-      best = RightAtEnds(f, dl, right, right_desc, options, *right_taken, s_right, radius, e_right,
-                         radius);
-    } else {
+    // A free end's right partner lies on the same row (rectified), anywhere along it.
+    const int best = RightAtEnds(f, dl, right, right_desc, options, *right_taken, s_right,
+                                 at_s ? radius : -1.0, e_right, at_e ? radius : -1.0);
+    if (best < 0) continue;
+    if (one) {
       const Eigen::Vector2d& free = at_s ? f.e : f.s;
-      if (!camera.InImage(free, border)) continue;
-      // The right segment's free end: on the same row (rectified), anywhere along it.
-      best = at_s ? RightAtEnds(f, dl, right, right_desc, options, *right_taken, s_right, radius,
-                                e_right, -1.0)
-                  : RightAtEnds(f, dl, right, right_desc, options, *right_taken, s_right, -1.0,
-                                e_right, radius);
-      if (best < 0) continue;
       const Eigen::Vector2d& free_right = at_s ? right[best].e : right[best].s;
       if (!(camera.InImage(free_right, border) && std::abs(free_right.y() - free.y()) <= radius))
         continue;
@@ -216,7 +210,6 @@ int JunctionDepth(const StereoCamera& camera, LineFeatures* left, const cv::Mat&
         continue;
       (at_s ? d_e : d_s) = d_free;
     }
-    if (best < 0) continue;
     const double t_s = camera.TrueDisparity(d_s), t_e = camera.TrueDisparity(d_e);
     if (!(t_s >= options.min_disparity && t_e >= options.min_disparity)) continue;
     if (!(t_s <= options.max_disparity && t_e <= options.max_disparity)) continue;

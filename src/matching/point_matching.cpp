@@ -112,8 +112,7 @@ bool RefineColumnLucasKanade(const cv::Mat& left, const cv::Mat& right, int u0, 
   return true;
 }
 
-/// Half size of the 11x11 stereo patches: SAD refinement, row search and intensity fit.
-constexpr int kStereoPatchHalf = 5;
+using match_internal::kStereoPatchHalf;
 
 /// Refines the right-image column of a stereo match by SAD over an 11x11 window along the row,
 /// with a parabola through the best cost and its neighbours. Returns false when the minimum is

@@ -15,7 +15,7 @@ void RightSums::Ensure(const cv::Mat& right) {
 
 bool SearchRow(const cv::Mat& left, const cv::Mat& right, RightSums* sums, int u0, int v0, int c0,
                int c1, double min_zncc, double margin, double* ur) {
-  constexpr int kHalf = kRowSearchHalf, kN = 2 * kHalf + 1, kMaxRange = 1024;
+  constexpr int kHalf = kStereoPatchHalf, kN = 2 * kHalf + 1, kMaxRange = 1024;
   if (v0 - kHalf < 0 || v0 + kHalf >= left.rows || u0 - kHalf < 0 || u0 + kHalf >= left.cols)
     return false;
   c0 = std::max(c0, kHalf);

@@ -8,7 +8,9 @@
 namespace pl_slam {
 namespace match_internal {
 
-constexpr int kRowSearchHalf = 5;  // 11x11 patches
+/// Half size of the 11x11 stereo patches: SAD refinement, row search, intensity fit and the
+/// patch check of point_matching.cpp, and the free ends of flat segments.
+constexpr int kStereoPatchHalf = 5;
 
 /// Box sums of the right image for SearchRow, computed on first use (most frames need none).
 struct RightSums {
