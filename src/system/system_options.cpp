@@ -53,7 +53,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.fused_min_inliers", &tr.fused_min_inliers,
         "a frame too poor for its own estimate right after a tracked one is fitted with the "
         "constant-velocity prediction as a prior and kept (flagged prior_fused) with at least "
-        "this many inliers agreeing with it (0 = off)");
+        "this many inliers agreeing with it; a frame kept by the relaxed gate is fitted with "
+        "that prior too (0 = off)");
   t.Add("tracker.fused_sigma", &tr.fused_sigma,
         "that prior: the change of motion per axis and frame it allows, on top of the last "
         "motion's own covariance, m");
