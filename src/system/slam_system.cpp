@@ -439,7 +439,6 @@ FrameResult SlamSystem::Process(const StereoFrame& frame) {
   result.T_w_c = r.T_w_c;
   result.pose_valid = r.pose_valid;
   result.predicted = r.predicted;
-  if (r.prior_fused) result.prior_fused = true;  // (also a relaxed-gate frame's fit)
   result.covariance = r.covariance_prev_cur;
   result.is_keyframe = r.is_keyframe;
   result.points_detected = r.points_detected;

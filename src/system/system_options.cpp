@@ -53,12 +53,14 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("tracker.fused_min_inliers", &tr.fused_min_inliers,
         "a frame too poor for its own estimate right after a tracked one is fitted with the "
         "constant-velocity prediction as a prior and kept (flagged prior_fused) with at least "
-        "this many inliers agreeing with it; a frame kept by the relaxed gate is fitted with "
-        "that prior too (0 = off)");
+        "this many inliers agreeing with it (0 = off)");
   t.Add("tracker.fused_sigma", &tr.fused_sigma,
         "that prior: the change of motion per axis and frame it allows, on top of the last "
         "motion's own covariance, m");
   t.Add("tracker.fused_sigma_deg", &tr.fused_sigma_deg, "the same, deg");
+  t.Add("tracker.relaxed_prior", &tr.relaxed_prior,
+        "a frame the relaxed gate keeps is fitted with that prior too (with fused_min_inliers "
+        "on), so the directions its few features leave weak stay near the motion model");
 
   PointDetectorOptions& p = tr.points;
   t.Add("tracker.points.max_points", &p.max_points, "ORB keypoints kept per image");

@@ -526,10 +526,10 @@ TrackerResult StereoTracker::Track(const StereoFrame& frame, bool mapping_idle) 
         // cluster of corners) would come from their noise and become the model the next
         // frames follow. Fitted with the prediction as TrackFused's prior, they stay near it.
         MotionEstimate fused;
-        if (est.point_inliers + est.line_inliers < s.options.min_inliers && s.velocity_cov_valid &&
+        if (s.options.relaxed_prior &&
+            est.point_inliers + est.line_inliers < s.options.min_inliers && s.velocity_cov_valid &&
             s.frames_since_previous == 1 && s.FusedWithPrior(f2f, prior, s.velocity_cov, &fused)) {
           f2f.est = fused;
-          result.prior_fused = true;
         }
         result.T_prev_cur = f2f.est.T_cur_prev.inverse();
         result.covariance_prev_cur = f2f.est.covariance_prev_cur;

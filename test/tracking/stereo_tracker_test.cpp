@@ -4,8 +4,9 @@
 // point offset is corrected by the camera's doffs, and while lost the pose follows the motion
 // model with the rotation the frame's own matches give, and direct alignment holds a view too
 // poor for features; matches aligned by patch make the frame chain more accurate; a few
-// clustered matches fitted with the motion model as a prior keep a walk up to a bare wall; a
-// keyframe refinement outside both estimates' uncertainty is refused.
+// clustered matches fitted with the motion model as a prior keep a walk up to a bare wall (the
+// relaxed gate's frames too); a keyframe refinement outside both estimates' uncertainty is
+// refused.
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -434,7 +435,10 @@ TEST(StereoTrackerTest, DirectAlignmentHoldsADimCorridorWhereFeaturesRunOut) {
 // switch (6-10 matches, all within a few centimetres). Alone they leave the motion
 // unobservable and the frames are lost; fitted with the constant-velocity prediction as a
 // prior they are tracked, and the pose ends closer to the truth than the motion model takes it
-// (the walk slows down as it nears the wall). No such frame becomes a keyframe.
+// (the walk slows down as it nears the wall). No such frame becomes a keyframe. The frames the
+// relaxed gate keeps are fitted with the same prior (tracker.relaxed_prior): alone, their few
+// matches would put a step the left image hardly measures (the distance to the switch) into
+// the model, and the walk ends farther off.
 TEST(StereoTrackerTest, AFewClusteredMatchesWithTheMotionModelKeepTheWalkToABareWall) {
   sim::SequenceOptions so;
   so.scene = sim::SceneKind::kLowtexWall;
@@ -449,9 +453,10 @@ TEST(StereoTrackerTest, AFewClusteredMatchesWithTheMotionModelKeepTheWalkToABare
     int lost = 0, fused = 0, fused_keyframes = 0;
     double error = 0.0;  // position error at the last frame, m
   };
-  auto run = [&](int fused_min_inliers) {
+  auto run = [&](int fused_min_inliers, bool relaxed_prior) {
     TrackerOptions options;
     options.fused_min_inliers = fused_min_inliers;
+    options.relaxed_prior = relaxed_prior;
     options.direct.enabled = false;
     StereoTracker tracker(seq.camera(), options);
     const SE3 T_w0 = seq.ground_truth()[first].T_w_c;
@@ -468,17 +473,20 @@ TEST(StereoTrackerTest, AFewClusteredMatchesWithTheMotionModelKeepTheWalkToABare
     }
     return out;
   };
-  const Run with = run(5);
-  const Run without = run(0);
+  const Run with = run(5, true);
+  const Run without = run(0, false);
+  const Run relaxed_alone = run(5, false);
   std::cout << "features alone: " << without.lost << " lost, end error " << without.error
             << " m; with the motion model as a prior: " << with.lost << " lost (" << with.fused
-            << " fused), end error " << with.error << " m\n";
+            << " fused), end error " << with.error
+            << " m; relaxed-gate frames without it: " << relaxed_alone.error << " m\n";
   EXPECT_GE(without.lost, 20) << "the switch alone should not hold the frames";
   EXPECT_EQ(without.fused, 0);
   EXPECT_GE(with.fused, 20);
   EXPECT_LE(with.lost, without.lost / 4);
   EXPECT_EQ(with.fused_keyframes, 0);
   EXPECT_LT(with.error, 0.5 * without.error);
+  EXPECT_LT(with.error, 0.9 * relaxed_alone.error);
 }
 
 // The keyframe refinement is refused when it disagrees with the frame-to-frame pose beyond

@@ -78,8 +78,7 @@ struct FrameResult {
   /// frame with a pose (StereoTracker::TrackDirect).
   bool direct_aligned = false;
   /// Neither held either: the pose fits the frame's few matches with the motion model as a
-  /// prior (StereoTracker::TrackFused; never a keyframe). Also set on a frame the relaxed gate
-  /// kept, fitted with the same prior.
+  /// prior (StereoTracker::TrackFused; never a keyframe).
   bool prior_fused = false;
   /// Lost, and T_w_c is the motion model's prediction (covariance: the model's).
   bool predicted = false;

@@ -99,13 +99,15 @@ struct TrackerOptions {
   /// prediction within the prior's 99 % bound (chi2, 6 dof) and the relaxed gate's, and the
   /// combined standard deviations within the relaxed gate's; the motion model then carries
   /// that estimate with its covariance, so a run of such frames is only as certain as its
-  /// evidence. A frame the relaxed gate keeps (fewer than min_inliers, agreeing with the
-  /// model) is fitted with the same prior, so that the directions its few features leave weak
-  /// (the distance to a light switch, which the left image alone hardly measures) stay near
-  /// the model instead of taking their noise into it. 0: off (both).
+  /// evidence. 0: off.
   int fused_min_inliers = 5;
-  double fused_sigma = 0.01;            ///< change of motion per axis and frame the prior allows, m
-  double fused_sigma_deg = 0.5;         ///< the same, deg
+  double fused_sigma = 0.01;     ///< change of motion per axis and frame the prior allows, m
+  double fused_sigma_deg = 0.5;  ///< the same, deg
+  /// A frame the relaxed gate keeps (fewer than min_inliers, agreeing with the model) is
+  /// fitted with the same prior (the gates of fused_min_inliers), so that the directions its
+  /// few features leave weak (the distance to a light switch, which the left image alone
+  /// hardly measures) stay near the model instead of taking the features' noise into it.
+  bool relaxed_prior = true;
   PointDetectorOptions points;          ///< "points.*"
   PointMatchingOptions point_matching;  ///< "point_matching.*"
   LineDetectorOptions lines;            ///< "lines.*"
