@@ -285,7 +285,8 @@ OptionTable MakeOptionTable(SystemOptions* options) {
   t.Add("mapping.cull_keep_newest", &mp.cull_keep_newest,
         "the newest this many keyframes are never culled");
   t.Add("mapping.stereo_residuals", &mp.stereo_residuals,
-        "bundle adjustment also uses the right image of stereo observations");
+        "bundle adjustment also uses the right image of stereo observations (off: only the "
+        "fixed keyframes hold the map's scale, and it drifts)");
   t.Add("mapping.stereo_max_depth_baselines", &mp.stereo_max_depth_baselines,
         "points farther than this many baselines: left image only in bundle adjustment (0 = no "
         "limit)");
